@@ -1,0 +1,172 @@
+// swarmsim: command-line batch simulator of flying insect swarms.
+// Subcommands: run, validate, info, bench. Exit codes: see core/error.hpp.
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+
+#include "bench.hpp"
+#include "core/error.hpp"
+#include "core/parallel.hpp"
+#include "io/scenario.hpp"
+#include "io/trajectory_reader.hpp"
+#include "run.hpp"
+#include "swarmsim/version.hpp"
+
+using namespace swarmsim;
+
+namespace {
+
+// comma-separated list of positive integers ("1000,10000")
+template <typename T>
+std::vector<T> parseList(const std::string& text, const char* option) {
+  std::vector<T> out;
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    char* end = nullptr;
+    const long long v = std::strtoll(item.c_str(), &end, 10);
+    if (item.empty() || *end != '\0' || v <= 0) {
+      throw InputError(std::string(option) + ": expected a comma-separated list of positive integers, got \"" + text +
+                       "\"");
+    }
+    out.push_back(static_cast<T>(v));
+  }
+  return out;
+}
+
+std::vector<std::string> overridesFrom(const std::vector<std::string>& sets, long long frames, long long seed) {
+  std::vector<std::string> o = sets;
+  if (frames >= 0) o.push_back("frames=" + std::to_string(frames));
+  if (seed >= 0) o.push_back("seed=" + std::to_string(seed));
+  return o;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"swarmsim " + std::string(kVersion) +
+               ": batch simulator of flying insect swarms.\n"
+               "Exit codes: 0 success, 1 other error, 2 invalid input (arguments, scenario, referenced files),\n"
+               "3 output cannot be written, 4 interrupted (partial but valid output)."};
+  app.set_version_flag("--version", std::string("swarmsim ") + kVersion);
+  app.require_subcommand(1);
+
+  // run
+  std::string scenarioFile, outPath;
+  long long frames = -1, seed = -1;
+  int threads = 0;
+  std::vector<std::string> sets;
+  bool force = false, quiet = false, progress = false;
+  CLI::App* run = app.add_subcommand("run", "Run a scenario and write its trajectories to HDF5");
+  run->add_option("scenario", scenarioFile, "Scenario JSON file")->required();
+  run->add_option("-o,--output", outPath, "Output HDF5 file (default: the scenario's output.path)");
+  run->add_option("--frames", frames, "Number of frames to write (overrides the scenario)")->check(CLI::Range(1LL, 100000000LL));
+  run->add_option("--threads", threads, "Worker threads (default: all cores)")->check(CLI::Range(1, 1024));
+  run->add_option("--seed", seed, "Random seed (overrides the scenario)")->check(CLI::NonNegativeNumber);
+  run->add_option("--set", sets, "Override a scenario value, e.g. --set swarms[0].count=5000 (repeatable)")
+      ->type_name("PATH=VALUE");
+  run->add_flag("--force", force, "Overwrite an existing output file");
+  run->add_flag("--quiet", quiet, "No summary line");
+  run->add_flag("--progress", progress, "Progress on stderr (default when stderr is a terminal)");
+
+  // validate
+  std::string validateFile;
+  std::vector<std::string> validateSets;
+  CLI::App* validate = app.add_subcommand("validate", "Check a scenario and print it resolved (defaults filled in) as JSON");
+  validate->add_option("scenario", validateFile, "Scenario JSON file")->required();
+  validate->add_option("--set", validateSets, "Override a scenario value (as for run)")->type_name("PATH=VALUE");
+
+  // info
+  std::string infoFile;
+  bool infoJson = false;
+  CLI::App* info = app.add_subcommand("info", "Describe a swarmsim output file");
+  info->add_option("file", infoFile, "HDF5 output file")->required();
+  info->add_flag("--json", infoJson, "Print JSON");
+
+  // bench
+  std::vector<std::string> benchFiles;
+  std::string benchAgents, benchThreads;
+  long long benchFrames = 0;
+  int benchRepeat = 3;
+  bool benchJson = false;
+  CLI::App* bench = app.add_subcommand("bench", "Time scenarios (no output written); without files, the built-in cases");
+  bench->add_option("scenarios", benchFiles, "Scenario JSON files");
+  bench->add_option("--agents", benchAgents, "Agent counts N[,N...]; the spawn region and domain are rescaled to keep the density")
+      ->type_name("N[,N...]");
+  bench->add_option("--frames", benchFrames, "Frames to time per repetition (default: min(scenario frames, 10))")
+      ->check(CLI::Range(1LL, 100000000LL));
+  bench->add_option("--threads", benchThreads, "Thread counts T[,T...] (default: all cores)")->type_name("T[,T...]");
+  bench->add_option("--repeat", benchRepeat, "Repetitions; the median is reported")->check(CLI::Range(1, 1000));
+  bench->add_flag("--json", benchJson, "JSON lines instead of a table");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? kExitOk : kExitInvalidInput;
+  }
+
+  try {
+    if (*run) {
+      if (threads > 0) setThreadCount(threads);
+      const Scenario sc = loadScenario(scenarioFile, overridesFrom(sets, frames, seed));
+      RunOptions opt;
+      opt.output = outPath;
+      opt.force = force;
+      opt.quiet = quiet;
+      opt.progress = progress || isatty(STDERR_FILENO);
+      installStopHandlers();
+      const RunResult r = runScenario(sc, opt);
+      return r.interrupted ? kExitInterrupted : kExitOk;
+    }
+    if (*validate) {
+      const Scenario sc = loadScenario(validateFile, validateSets);
+      std::cout << sc.resolved.dump(2) << "\n";
+      return kExitOk;
+    }
+    if (*info) {
+      const TrajectoryInfo ti = readTrajectoryInfo(infoFile);
+      if (infoJson) {
+        std::cout << ti.toJson().dump(2) << "\n";
+      } else {
+        std::printf("file:       %s\n", ti.path.c_str());
+        std::printf("format:     %s %lld (swarmsim %s)\n", ti.format.c_str(), static_cast<long long>(ti.formatVersion),
+                    ti.swarmsimVersion.c_str());
+        std::printf("scenario:   %s\n", ti.scenarioName.c_str());
+        std::printf("seed:       %llu\n", static_cast<unsigned long long>(ti.seed));
+        std::printf("dt:         %g s (%lld steps per frame, %g s per frame)\n", ti.dt,
+                    static_cast<long long>(ti.stepsPerFrame), ti.frameDt);
+        std::printf("frames:     %lld%s\n", static_cast<long long>(ti.frames),
+                    ti.interrupted ? " (interrupted run)" : (ti.complete ? "" : " (incomplete)"));
+        for (const auto& s : ti.swarms) {
+          std::string q;
+          for (const auto& x : s.quantities) q += (q.empty() ? "" : ", ") + x;
+          std::printf("swarm:      %s: %lld agents, model %s, %lld frames of %s\n", s.name.c_str(),
+                      static_cast<long long>(s.agents), s.model.c_str(), static_cast<long long>(s.frames), q.c_str());
+        }
+      }
+      return kExitOk;
+    }
+    if (*bench) {
+      BenchOptions opt;
+      opt.scenarios = benchFiles;
+      if (!benchAgents.empty()) opt.agents = parseList<std::int64_t>(benchAgents, "--agents");
+      if (!benchThreads.empty()) opt.threads = parseList<int>(benchThreads, "--threads");
+      opt.frames = benchFrames;
+      opt.repeat = benchRepeat;
+      opt.json = benchJson;
+      runBench(opt, std::cout);
+      return kExitOk;
+    }
+  } catch (const Error& e) {
+    std::fprintf(stderr, "swarmsim: error: %s\n", e.what());
+    return e.code();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "swarmsim: error: %s\n", e.what());
+    return kExitOther;
+  }
+  return kExitOther;
+}

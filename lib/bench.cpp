@@ -1,0 +1,125 @@
+#include "bench.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <ostream>
+
+#include "core/error.hpp"
+#include "core/parallel.hpp"
+#include "io/scenario.hpp"
+#include "run.hpp"
+
+namespace swarmsim {
+
+namespace {
+
+struct BuiltinCase {
+  const char* name;
+  const char* json;
+};
+
+// Built-in cases. boids-100k: 100,000 boids with the default zones (outer
+// radius 0.3 m) at 88 agents/m^3, i.e. about 10 neighbours inside the
+// attraction radius (88 * 4/3 pi 0.3^3 = 10.0).
+const BuiltinCase kCases[] = {
+    {"boids-100k", R"({
+      "name": "boids-100k", "seed": 7, "dt": 0.01, "frames": 20, "steps_per_frame": 1,
+      "domain": {"min": [-12, -12, -12], "max": [12, 12, 12]},
+      "swarms": [{"name": "boids", "count": 100000, "model": "boids", "initial_speed": 0.5,
+                  "spawn": {"type": "sphere", "center": [0, 0, 0], "radius": 6.463},
+                  "params": {"jitter": 0.05}}]
+    })"},
+};
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+using Clock = std::chrono::steady_clock;
+
+}  // namespace
+
+std::vector<std::string> builtinBenchCases() {
+  std::vector<std::string> names;
+  for (const auto& c : kCases) names.emplace_back(c.name);
+  return names;
+}
+
+std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
+  struct Source {
+    std::string label;
+    Json json;
+  };
+  std::vector<Source> sources;
+  if (options.scenarios.empty()) {
+    for (const auto& c : kCases) sources.push_back({c.name, parseJsonText(c.json, std::string("builtin:") + c.name)});
+  } else {
+    for (const auto& f : options.scenarios) sources.push_back({f, readJsonFile(f)});
+  }
+  std::vector<std::int64_t> agentsList = options.agents.empty() ? std::vector<std::int64_t>{0} : options.agents;
+  std::vector<int> threadList = options.threads.empty() ? std::vector<int>{threadCount()} : options.threads;
+
+  std::vector<BenchRow> rows;
+  bool headerDone = false;
+  for (const auto& src : sources) {
+    for (const std::int64_t agents : agentsList) {
+      Json json = src.json;
+      if (agents > 0) rescaleAgents(json, agents, src.label);
+      const Scenario sc = parseScenario(json, src.label);
+      for (const int threads : threadList) {
+        setThreadCount(threads);
+        const std::int64_t frames = options.frames > 0 ? options.frames : std::min<std::int64_t>(sc.frames, 10);
+        const std::int64_t steps = std::max<std::int64_t>(1, frames * sc.stepsPerFrame);
+        std::vector<double> pre, rate;
+        for (int r = 0; r < std::max(1, options.repeat); ++r) {
+          Simulation sim(sc);
+          pre.push_back(sim.preprocessSeconds());
+          sim.step();  // warm-up: sizes scratch buffers
+          const auto t0 = Clock::now();
+          for (std::int64_t k = 0; k < steps; ++k) sim.step();
+          const double s = std::chrono::duration<double>(Clock::now() - t0).count();
+          rate.push_back(static_cast<double>(steps) / s);
+        }
+        BenchRow row;
+        row.scenario = sc.name;
+        for (const auto& sw : sc.swarms) {
+          if (row.model.find(sw.model) == std::string::npos) row.model += (row.model.empty() ? "" : "+") + sw.model;
+        }
+        row.agents = sc.agentCount();
+        row.threads = threads;
+        row.preprocessSeconds = median(pre);
+        row.stepsPerSecond = median(rate);
+        row.nsPerAgentStep = 1e9 / (row.stepsPerSecond * static_cast<double>(row.agents));
+        row.steps = steps;
+        rows.push_back(row);
+        char line[256];
+        if (options.json) {
+          Json j = {{"scenario", row.scenario},         {"model", row.model},
+                    {"agents", row.agents},             {"threads", row.threads},
+                    {"preprocess_s", row.preprocessSeconds}, {"steps_per_s", row.stepsPerSecond},
+                    {"ns_per_agent_step", row.nsPerAgentStep}, {"steps", row.steps},
+                    {"repeat", options.repeat}};
+          out << j.dump() << "\n";
+        } else {
+          if (!headerDone) {
+            std::snprintf(line, sizeof line, "%-24s %-10s %10s %7s %13s %12s %12s\n", "scenario", "model", "agents",
+                          "threads", "preprocess_s", "steps/s", "ns/agent-step");
+            out << line;
+            headerDone = true;
+          }
+          std::snprintf(line, sizeof line, "%-24s %-10s %10lld %7d %13.4f %12.2f %12.1f\n", row.scenario.c_str(),
+                        row.model.c_str(), static_cast<long long>(row.agents), row.threads, row.preprocessSeconds,
+                        row.stepsPerSecond, row.nsPerAgentStep);
+          out << line;
+        }
+        out.flush();
+      }
+    }
+  }
+  return rows;
+}
+
+}  // namespace swarmsim

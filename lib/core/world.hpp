@@ -1,0 +1,29 @@
+#pragma once
+// The read-only world every model sees: domain bounds and time stepping.
+// Built once from the scenario; never changed by a step.
+#include <cstdint>
+
+#include "core/vec.hpp"
+
+namespace swarmsim {
+
+struct Aabb {
+  Vec3d min = Vec3d::Zero();
+  Vec3d max = Vec3d::Zero();
+  Vec3d center() const { return 0.5 * (min + max); }
+  Vec3d extent() const { return max - min; }
+};
+
+struct World {
+  Aabb domain;             // metres
+  double dt = 0.0;         // seconds per step
+  std::uint64_t seed = 0;  // scenario seed
+};
+
+// what a model needs to know about the step it is taking
+struct StepInfo {
+  std::uint64_t step = 0;          // index of the step being taken (0 = first)
+  std::uint32_t swarmIndex = 0;    // which swarm of the scenario, for random streams
+};
+
+}  // namespace swarmsim

@@ -1,0 +1,222 @@
+#include "io/scenario.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <set>
+
+#include "core/error.hpp"
+
+namespace swarmsim {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr std::int64_t kMaxAgents = 200'000'000;
+constexpr std::int64_t kInt64Max = std::numeric_limits<std::int64_t>::max();
+
+SpawnRegion readSpawn(JsonReader r) {
+  SpawnRegion s;
+  const std::string type = r.choice("type", "box", {"box", "sphere"});
+  if (type == "box") {
+    s.kind = SpawnRegion::Kind::kBox;
+    s.min = r.requireVec3("min");
+    s.max = r.requireVec3("max");
+    for (int a = 0; a < 3; ++a) {
+      if (!(s.max[a] >= s.min[a])) r.fail("max", "expected max >= min on every axis, got " +
+                                                    std::to_string(s.max[a]) + " < " + std::to_string(s.min[a]) +
+                                                    " on axis " + "xyz"[a]);
+    }
+  } else {
+    s.kind = SpawnRegion::Kind::kSphere;
+    s.center = r.requireVec3("center");
+    s.radius = r.requireNumber("radius", Range::nonNegative());
+  }
+  r.finish();
+  return s;
+}
+
+// the parts of a --set path: keys and indices
+struct PathPart {
+  std::string key;
+  long index = -1;
+};
+
+std::vector<PathPart> splitPath(const std::string& path) {
+  std::vector<PathPart> parts;
+  std::size_t i = 0;
+  const auto bad = [&](const std::string& why) {
+    throw InputError("--set " + path + ": " + why + " (expected a path like swarms[0].params.speed)");
+  };
+  while (i < path.size()) {
+    if (path[i] == '[') {
+      const auto close = path.find(']', i);
+      if (close == std::string::npos) bad("missing ']'");
+      const std::string num = path.substr(i + 1, close - i - 1);
+      if (num.empty() || num.find_first_not_of("0123456789") != std::string::npos) bad("index is not a number");
+      parts.push_back({"", std::stol(num)});
+      i = close + 1;
+      if (i < path.size() && path[i] == '.') ++i;
+    } else {
+      const auto end = path.find_first_of(".[", i);
+      const std::string key = path.substr(i, end == std::string::npos ? std::string::npos : end - i);
+      if (key.empty()) bad("empty key");
+      parts.push_back({key, -1});
+      i = end == std::string::npos ? path.size() : end;
+      if (i < path.size() && path[i] == '.') ++i;
+    }
+  }
+  if (parts.empty()) bad("empty path");
+  return parts;
+}
+
+}  // namespace
+
+std::int64_t Scenario::agentCount() const {
+  std::int64_t n = 0;
+  for (const auto& s : swarms) n += s.count;
+  return n;
+}
+
+void applyOverride(Json& scenario, const std::string& assignment) {
+  const auto eq = assignment.find('=');
+  if (eq == std::string::npos || eq == 0) {
+    throw InputError("--set " + assignment + ": expected PATH=VALUE, e.g. swarms[0].count=5000");
+  }
+  const std::string path = assignment.substr(0, eq);
+  const std::string text = assignment.substr(eq + 1);
+  Json value = Json::parse(text, nullptr, false);
+  if (value.is_discarded()) value = text;  // a plain string
+  Json* node = &scenario;
+  for (const auto& part : splitPath(path)) {
+    if (part.index >= 0) {
+      if (!node->is_array() || static_cast<std::size_t>(part.index) >= node->size()) {
+        throw InputError("--set " + path + ": index [" + std::to_string(part.index) + "] is out of range (" +
+                         (node->is_array() ? std::to_string(node->size()) + " elements" : std::string("not an array")) +
+                         ")");
+      }
+      node = &(*node)[static_cast<std::size_t>(part.index)];
+    } else {
+      if (node->is_null()) *node = Json::object();
+      if (!node->is_object()) throw InputError("--set " + path + ": '" + part.key + "' is inside a non-object value");
+      node = &(*node)[part.key];
+    }
+  }
+  *node = value;
+}
+
+void rescaleAgents(Json& scenario, std::int64_t agents, const std::string& file) {
+  if (!scenario.contains("swarms") || !scenario["swarms"].is_array() || scenario["swarms"].empty()) {
+    throw InputError(file + ": swarms: expected an array of at least 1 object");
+  }
+  // the checked scenario gives the current total and the shapes
+  const Scenario before = parseScenario(scenario, file);
+  const double total = static_cast<double>(before.agentCount());
+  const double ratio = static_cast<double>(agents) / total;
+  const double linear = std::cbrt(ratio);
+  std::int64_t assigned = 0;
+  for (std::size_t i = 0; i < before.swarms.size(); ++i) {
+    Json& sw = scenario["swarms"][i];
+    std::int64_t count = i + 1 == before.swarms.size()
+                             ? agents - assigned
+                             : std::max<std::int64_t>(1, std::llround(static_cast<double>(before.swarms[i].count) * ratio));
+    count = std::max<std::int64_t>(1, count);
+    assigned += count;
+    sw["count"] = count;
+    const SpawnRegion& sp = before.swarms[i].spawn;
+    if (sp.kind == SpawnRegion::Kind::kBox) {
+      const Vec3d c = 0.5 * (sp.min + sp.max), h = 0.5 * (sp.max - sp.min) * linear;
+      const Vec3d lo = c - h, hi = c + h;
+      sw["spawn"]["min"] = {lo.x(), lo.y(), lo.z()};
+      sw["spawn"]["max"] = {hi.x(), hi.y(), hi.z()};
+    } else {
+      sw["spawn"]["radius"] = sp.radius * linear;
+    }
+  }
+  const Vec3d c = before.domain.center(), h = 0.5 * before.domain.extent() * linear;
+  scenario["domain"]["min"] = {c.x() - h.x(), c.y() - h.y(), c.z() - h.z()};
+  scenario["domain"]["max"] = {c.x() + h.x(), c.y() + h.y(), c.z() + h.z()};
+}
+
+Scenario parseScenario(const Json& json, const std::string& file) {
+  if (!json.is_object()) throw InputError(file + ": expected a JSON object at the top level, got " + describeValue(json));
+  Scenario sc;
+  sc.file = file;
+  JsonReader r(json, file, "", &sc.resolved);
+  r.string("description", "");
+  const std::string stem = fs::path(file).stem().string();
+  sc.name = r.string("name", stem.empty() ? "scenario" : stem);
+  sc.seed = static_cast<std::uint64_t>(r.integer("seed", 1, 0, kInt64Max));
+  sc.dt = r.requireNumber("dt", Range::positive());
+  sc.frames = r.requireInteger("frames", 1, 100'000'000);
+  sc.stepsPerFrame = r.integer("steps_per_frame", 1, 1, 1'000'000);
+  {
+    JsonReader d = r.object("domain", true);
+    sc.domain.min = d.requireVec3("min");
+    sc.domain.max = d.requireVec3("max");
+    for (int a = 0; a < 3; ++a) {
+      if (!(sc.domain.max[a] > sc.domain.min[a])) {
+        d.fail("max", std::string("expected max > min on every axis, got ") + std::to_string(sc.domain.max[a]) +
+                          " <= " + std::to_string(sc.domain.min[a]) + " on axis " + "xyz"[a]);
+      }
+    }
+    d.finish();
+  }
+  const World world = sc.world();
+  std::set<std::string> names;
+  std::vector<JsonReader> swarms = r.objectArray("swarms", true, 1);
+  std::int64_t total = 0;
+  for (std::size_t i = 0; i < swarms.size(); ++i) {
+    JsonReader& s = swarms[i];
+    SwarmSpec spec;
+    spec.name = s.string("name", "swarm" + std::to_string(i));
+    if (spec.name.empty() || spec.name.find_first_of("/.") != std::string::npos) {
+      s.failExpected("name", "a non-empty name without '/' or '.'", spec.name);
+    }
+    if (!names.insert(spec.name).second) s.failExpected("name", "a name no other swarm has", spec.name);
+    spec.count = s.requireInteger("count", 1, kMaxAgents);
+    total += spec.count;
+    if (total > kMaxAgents) s.fail("count", "the scenario has more than " + std::to_string(kMaxAgents) + " agents");
+    spec.spawn = readSpawn(s.object("spawn", true));
+    spec.initialSpeed = s.number("initial_speed", 0.0, Range::nonNegative());
+    spec.model = s.requireString("model");
+    const ModelEntry* entry = findModel(spec.model);
+    if (!entry) {
+      std::string known;
+      for (const auto& e : modelRegistry()) known += (known.empty() ? "\"" : ", \"") + std::string(e.name) + "\"";
+      s.failExpected("model", "one of " + known, spec.model);
+    }
+    JsonReader params = s.object("params", false);
+    spec.config = entry->parse(params, ModelContext{world});
+    params.finish();
+    s.finish();
+    sc.swarms.push_back(std::move(spec));
+  }
+  {
+    JsonReader o = r.object("output", false);
+    const std::string path = o.string("path", sc.name + ".h5");
+    if (path.empty()) o.failExpected("path", "a non-empty file path", path);
+    // relative paths in the file resolve against the scenario's folder; the
+    // default (no path given) is in the working directory
+    if (json.contains("output") && json["output"].contains("path") && fs::path(path).is_relative()) {
+      sc.output.path = (fs::path(file).parent_path() / path).lexically_normal().string();
+    } else {
+      sc.output.path = path;
+    }
+    sc.output.quantities = o.stringList("quantities", {"position", "velocity"}, {"position", "velocity"});
+    if (sc.output.quantities.empty()) o.failExpected("quantities", "at least one quantity", Json::array());
+    sc.output.compression = static_cast<int>(o.integer("compression", 0, 0, 9));
+    o.finish();
+  }
+  r.finish();
+  return sc;
+}
+
+Scenario loadScenario(const std::string& file, const std::vector<std::string>& overrides) {
+  Json json = readJsonFile(file);
+  for (const auto& o : overrides) applyOverride(json, o);
+  return parseScenario(json, file);
+}
+
+}  // namespace swarmsim

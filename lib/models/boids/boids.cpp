@@ -1,0 +1,169 @@
+#include "models/boids/boids.hpp"
+
+#include <cmath>
+
+#include "core/parallel.hpp"
+#include "core/rng.hpp"
+#include "spatial/uniform_grid.hpp"
+
+namespace swarmsim {
+
+namespace {
+
+class BoidsConfig final : public ModelConfig {
+ public:
+  explicit BoidsConfig(const BoidsParams& p) : p_(p) {}
+  std::unique_ptr<Model> build(const World&) const override { return makeBoids(p_); }
+
+ private:
+  BoidsParams p_;
+};
+
+// unit pull toward the centre, falling linearly to 0 inside radius 1/invRadius
+inline Vec3 centerPull(const Vec3& toCenter, float invRadius) {
+  const float d = toCenter.norm();
+  if (!(d > 0.0f)) return Vec3::Zero();
+  const float scale = invRadius > 0.0f ? std::min(1.0f, d * invRadius) : 1.0f;
+  return toCenter * (scale / d);
+}
+
+class Boids final : public Model {
+ public:
+  explicit Boids(const BoidsParams& p) : p_(p) {
+    r1_ = static_cast<float>(p.repulsionZone);
+    r2_ = static_cast<float>(p.repulsionZone + p.alignmentZone);
+    r3_ = static_cast<float>(p.repulsionZone + p.alignmentZone + p.attractionZone);
+    cosHalfFov_ = static_cast<float>(std::cos(0.5 * p.fieldOfView * M_PI / 180.0));
+  }
+
+  void step(const World& world, SwarmState& s, const StepInfo& info) override {
+    const std::size_t n = s.size();
+    // the grid (one rebuild per step), then unit velocities in cell order
+    grid_.build(s.px.data(), s.py.data(), s.pz.data(), n, r3_);
+    const auto& order = grid_.order();
+    for (auto* a : {&sux_, &suy_, &suz_, &nvx_, &nvy_, &nvz_}) a->resize(n);
+    parallelFor(n, [&](std::size_t k) {
+      const Vec3 u = normalizedOrZero(s.velocity(order[k]));
+      sux_[k] = u.x();
+      suy_[k] = u.y();
+      suz_[k] = u.z();
+    });
+
+    const float dt = static_cast<float>(world.dt);
+    const double alpha = p_.responseTime > 0.0 ? 1.0 - std::exp(-world.dt / p_.responseTime) : 1.0;
+    const float blend = static_cast<float>(alpha);
+    const float noise = static_cast<float>(p_.jitter * std::sqrt((2.0 - alpha) / alpha));
+    const float invCr = p_.centeringRadius > 0.0 ? static_cast<float>(1.0 / p_.centeringRadius) : 0.0f;
+    const Vec3 center = p_.center.cast<float>();
+    const Vec3 dmin = world.domain.min.cast<float>(), dmax = world.domain.max.cast<float>();
+    const float margin = static_cast<float>(p_.wallMargin);
+
+    // phase 1: every new velocity from the old state (agents in cell order for locality)
+    parallelFor(n, [&](std::size_t k) {
+      const std::uint32_t i = order[k];
+      const Vec3 x = s.position(i), v = s.velocity(i);
+      const Vec3 vhat(sux_[k], suy_[k], suz_[k]);
+      Vec3 rep = Vec3::Zero(), ali = Vec3::Zero(), att = Vec3::Zero();
+      const float r1sq = r1_ * r1_, r2sq = r2_ * r2_;
+      grid_.forEachNeighbor(x.x(), x.y(), x.z(), r3_, [&](std::uint32_t j, float dx, float dy, float dz, float d2) {
+        if (j == k || d2 <= 0.0f) return;  // itself, or coincident (no direction)
+        const float inv = 1.0f / std::sqrt(d2);
+        const Vec3 dir(dx * inv, dy * inv, dz * inv);  // toward the neighbour
+        if (d2 <= r1sq) {
+          rep -= dir;
+        } else if (d2 <= r2sq) {
+          ali += Vec3(sux_[j], suy_[j], suz_[j]);
+        } else if (vhat.dot(dir) >= cosHalfFov_) {
+          att += dir;
+        }
+      });
+      Vec3 u = vhat * static_cast<float>(p_.speed) + rep * static_cast<float>(p_.repulsion) +
+               ali * static_cast<float>(p_.alignment) + att * static_cast<float>(p_.attraction) +
+               centerPull(center - x, invCr) * static_cast<float>(p_.centering);
+      // soft walls: push back in proportion to the depth inside the margin
+      Vec3 wall = Vec3::Zero();
+      for (int a = 0; a < 3; ++a) {
+        const float lo = dmin[a] + margin - x[a];
+        const float hi = x[a] - (dmax[a] - margin);
+        if (lo > 0.0f) wall[a] += lo / margin;
+        if (hi > 0.0f) wall[a] -= hi / margin;
+      }
+      u += wall * static_cast<float>(p_.wallForce);
+      if (p_.jitter > 0.0) {
+        AgentRng rng(world.seed, info.step, s.id[i], RngPurpose::kJitter, info.swarmIndex);
+        u += rng.normal3() * noise;
+      }
+      Vec3 nv = v + (u - v) * blend;
+      // speed limits
+      const float sp = nv.norm();
+      const float smin = static_cast<float>(p_.speed), smax = static_cast<float>(p_.maxSpeed);
+      if (sp > smax) {
+        nv *= smax / sp;
+      } else if (sp < smin) {
+        const Vec3 dirv = sp > 1e-12f ? Vec3(nv / sp) : (vhat.squaredNorm() > 0.0f ? vhat : Vec3(1.0f, 0.0f, 0.0f));
+        nv = dirv * smin;
+      }
+      nvx_[k] = nv.x();
+      nvy_[k] = nv.y();
+      nvz_[k] = nv.z();
+    });
+    // phase 2: apply, storing the agents in cell order (spatial sorting keeps
+    // the next step's memory accesses local)
+    next_.resizeStorage(n);
+    parallelFor(n, [&](std::size_t k) {
+      const std::uint32_t i = order[k];
+      next_.id[k] = s.id[i];
+      next_.vx[k] = nvx_[k];
+      next_.vy[k] = nvy_[k];
+      next_.vz[k] = nvz_[k];
+      next_.px[k] = s.px[i] + nvx_[k] * dt;
+      next_.py[k] = s.py[i] + nvy_[k] * dt;
+      next_.pz[k] = s.pz[i] + nvz_[k] * dt;
+    });
+    s.swapStorage(next_);
+  }
+
+ private:
+  BoidsParams p_;
+  float r1_, r2_, r3_, cosHalfFov_;
+  UniformGrid grid_;
+  // scratch, reused every step (no allocation once sized)
+  std::vector<float> sux_, suy_, suz_, nvx_, nvy_, nvz_;  // by sorted position
+  SwarmState next_;  // the state being written in phase 2
+};
+
+}  // namespace
+
+BoidsParams readBoidsParams(JsonReader& r, const ModelContext& context) {
+  BoidsParams p;
+  p.speed = r.number("speed", p.speed, Range::positive());
+  p.maxSpeed = r.number("max_speed", std::max(p.maxSpeed, p.speed), Range::positive());
+  if (p.maxSpeed < p.speed) r.fail("max_speed", "expected a number >= speed (" + std::to_string(p.speed) + ")");
+  p.repulsionZone = r.number("repulsion_zone", p.repulsionZone, Range::nonNegative());
+  p.alignmentZone = r.number("alignment_zone", p.alignmentZone, Range::nonNegative());
+  p.attractionZone = r.number("attraction_zone", p.attractionZone, Range::nonNegative());
+  if (!(p.repulsionZone + p.alignmentZone + p.attractionZone > 0.0)) {
+    r.fail("attraction_zone", "the three zone widths add up to 0; expected a positive outer radius");
+  }
+  p.fieldOfView = r.number("field_of_view", p.fieldOfView, Range::closed(0.0, 360.0));
+  p.repulsion = r.number("repulsion", p.repulsion, Range::nonNegative());
+  p.alignment = r.number("alignment", p.alignment, Range::nonNegative());
+  p.attraction = r.number("attraction", p.attraction, Range::nonNegative());
+  p.centering = r.number("centering", p.centering, Range::nonNegative());
+  p.centeringRadius = r.number("centering_radius", p.centeringRadius, Range::nonNegative());
+  p.center = r.vec3("center", context.world.domain.center());
+  const Vec3d ext = context.world.domain.extent();
+  p.wallMargin = r.number("wall_margin", 0.1 * ext.minCoeff(), Range::positive());
+  p.wallForce = r.number("wall_force", p.wallForce, Range::nonNegative());
+  p.jitter = r.number("jitter", p.jitter, Range::nonNegative());
+  p.responseTime = r.number("response_time", p.responseTime, Range::nonNegative());
+  return p;
+}
+
+std::shared_ptr<const ModelConfig> parseBoids(JsonReader& params, const ModelContext& context) {
+  return std::make_shared<BoidsConfig>(readBoidsParams(params, context));
+}
+
+std::unique_ptr<Model> makeBoids(const BoidsParams& params) { return std::make_unique<Boids>(params); }
+
+}  // namespace swarmsim

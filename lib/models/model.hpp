@@ -1,0 +1,49 @@
+#pragma once
+// The model interface. A model is created in two stages:
+//   1. its ModelConfig is parsed from the swarm's `params` JSON (cheap, checks
+//      every value; used by `swarmsim validate`);
+//   2. ModelConfig::build() makes the Model, doing any precomputation.
+// Model::step() reads the world and the swarm's current state and writes only
+// that swarm's state. It must be two-phase (every new velocity from the old
+// state, then apply) and use counter-based random numbers, so results do not
+// depend on the number of threads.
+#include <memory>
+#include <string>
+
+#include "core/json_reader.hpp"
+#include "core/swarm_state.hpp"
+#include "core/world.hpp"
+
+namespace swarmsim {
+
+class Model {
+ public:
+  virtual ~Model() = default;
+  // advance the swarm by one time step world.dt
+  virtual void step(const World& world, SwarmState& state, const StepInfo& info) = 0;
+};
+
+class ModelConfig {
+ public:
+  virtual ~ModelConfig() = default;
+  virtual std::unique_ptr<Model> build(const World& world) const = 0;
+};
+
+// what a model's parser may know about the scenario (for defaults)
+struct ModelContext {
+  const World& world;
+};
+
+// one registered model: its scenario name and parser
+struct ModelEntry {
+  const char* name;
+  const char* summary;
+  std::shared_ptr<const ModelConfig> (*parse)(JsonReader& params, const ModelContext& context);
+};
+
+// every registered model, in registry order
+const std::vector<ModelEntry>& modelRegistry();
+// the entry named `name`, or null
+const ModelEntry* findModel(const std::string& name);
+
+}  // namespace swarmsim

@@ -1,0 +1,21 @@
+// The one place models are registered: one line per model.
+#include "models/boids/boids.hpp"
+#include "models/model.hpp"
+
+namespace swarmsim {
+
+const std::vector<ModelEntry>& modelRegistry() {
+  static const std::vector<ModelEntry> entries = {
+      {"boids", "three-zone boids (repulsion, alignment, attraction), blog2018", &parseBoids},
+  };
+  return entries;
+}
+
+const ModelEntry* findModel(const std::string& name) {
+  for (const auto& e : modelRegistry()) {
+    if (name == e.name) return &e;
+  }
+  return nullptr;
+}
+
+}  // namespace swarmsim

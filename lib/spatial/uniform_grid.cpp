@@ -1,0 +1,88 @@
+#include "spatial/uniform_grid.hpp"
+
+#include <limits>
+#include <stdexcept>
+
+#include "core/parallel.hpp"
+
+namespace swarmsim {
+
+void UniformGrid::build(const float* x, const float* y, const float* z, std::size_t n, float minCell) {
+  if (!(minCell > 0.0f)) throw std::invalid_argument("UniformGrid::build: cell size must be > 0");
+  // bounding box (min/max do not depend on evaluation order)
+  float lo[3] = {std::numeric_limits<float>::max(), std::numeric_limits<float>::max(),
+                 std::numeric_limits<float>::max()};
+  float hi[3] = {-lo[0], -lo[1], -lo[2]};
+  const float* p[3] = {x, y, z};
+  for (int a = 0; a < 3; ++a) {
+    float l = lo[a], h = hi[a];
+    const float* v = p[a];
+    const long long count = static_cast<long long>(n);
+#pragma omp parallel for reduction(min : l) reduction(max : h) schedule(static)
+    for (long long i = 0; i < count; ++i) {
+      l = std::min(l, v[i]);
+      h = std::max(h, v[i]);
+    }
+    if (n == 0) l = h = 0.0f;
+    if (!std::isfinite(l) || !std::isfinite(h)) {
+      throw std::runtime_error("UniformGrid::build: non-finite agent position");
+    }
+    lo[a] = l;
+    hi[a] = h;
+  }
+  // cell edge: slightly above minCell so a query of radius minCell spans +-1 cell
+  // despite rounding; coarsened until there are at most ~2 cells per point
+  double edge = static_cast<double>(minCell) * (1.0 + 1e-5);
+  const double maxCells = 2.0 * static_cast<double>(n) + 64.0;
+  for (;;) {
+    double cells = 1.0;
+    for (int a = 0; a < 3; ++a) {
+      const double ext = static_cast<double>(hi[a]) - lo[a];
+      dims_[a] = static_cast<int>(std::max(1.0, std::min(std::floor(ext / edge), 1e6)));
+      cells *= dims_[a];
+    }
+    if (cells <= maxCells) break;
+    edge *= std::cbrt(cells / maxCells) * 1.01;
+  }
+  for (int a = 0; a < 3; ++a) {
+    origin_[a] = lo[a];
+    const double ext = static_cast<double>(hi[a]) - lo[a];
+    // every cell is at least `edge` wide; the last one absorbs the remainder
+    const double cell = std::max(edge, dims_[a] > 1 ? ext / dims_[a] : edge);
+    inv_[a] = static_cast<float>(1.0 / cell);
+  }
+
+  const std::size_t ncell = static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2];
+  cell_.resize(n);
+  parallelFor(n, [&](std::size_t i) {
+    const std::size_t c = (static_cast<std::size_t>(cellCoord(z[i], 2)) * dims_[1] + cellCoord(y[i], 1)) * dims_[0] +
+                          cellCoord(x[i], 0);
+    cell_[i] = static_cast<std::uint32_t>(c);
+  });
+  // counting sort, stable in point index
+  start_.assign(ncell + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) ++start_[cell_[i] + 1];
+  for (std::size_t c = 0; c < ncell; ++c) start_[c + 1] += start_[c];
+  order_.resize(n);
+  {
+    std::vector<std::uint32_t>& next = cursor_;
+    next.assign(start_.begin(), start_.end() - 1);
+    for (std::size_t i = 0; i < n; ++i) order_[next[cell_[i]]++] = static_cast<std::uint32_t>(i);
+  }
+  sx_.resize(n);
+  sy_.resize(n);
+  sz_.resize(n);
+  parallelFor(n, [&](std::size_t k) {
+    const std::uint32_t i = order_[k];
+    sx_[k] = x[i];
+    sy_[k] = y[i];
+    sz_[k] = z[i];
+  });
+}
+
+void UniformGrid::gather(const std::vector<float>& src, std::vector<float>& dst) const {
+  dst.resize(order_.size());
+  parallelFor(order_.size(), [&](std::size_t k) { dst[k] = src[order_[k]]; });
+}
+
+}  // namespace swarmsim

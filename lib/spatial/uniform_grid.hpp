@@ -1,0 +1,103 @@
+#pragma once
+// Uniform grid for fixed-radius neighbour search, rebuilt once per step.
+//
+// build() bins the points by a counting sort over cells of edge >= minCell
+// covering the points' bounding box (so points anywhere, inside or outside
+// the domain, are handled; far-flung points only make cells coarser, since the
+// number of cells is capped at a few per point). After build, points are also
+// available in cell order (sortedX/Y/Z), and forEachNeighbor visits the sorted
+// points within radius r of a query point. Cells are x-fastest, so the cells of
+// one (y, z) row of the query's neighbourhood are one contiguous range of the
+// sorted arrays. The visit order is deterministic (cell order, then point index).
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+namespace swarmsim {
+
+class UniformGrid {
+ public:
+  // bin n points; minCell > 0 is the smallest allowed cell edge (usually the
+  // largest query radius, so queries visit 3x3x3 cells)
+  void build(const float* x, const float* y, const float* z, std::size_t n, float minCell);
+
+  std::size_t size() const { return order_.size(); }
+  // sorted position k -> original point index
+  const std::vector<std::uint32_t>& order() const { return order_; }
+  const std::vector<float>& sortedX() const { return sx_; }
+  const std::vector<float>& sortedY() const { return sy_; }
+  const std::vector<float>& sortedZ() const { return sz_; }
+  // dst[k] = src[order[k]] for every sorted position k (dst is resized)
+  void gather(const std::vector<float>& src, std::vector<float>& dst) const;
+  int dim(int axis) const { return dims_[axis]; }
+  float cellSize(int axis) const { return 1.0f / inv_[axis]; }
+
+  // call f(k, dx, dy, dz, d2) for every sorted point k with d2 = |p_k - q|^2 <= r^2,
+  // where (dx, dy, dz) = p_k - q. Includes the query point itself if it is a
+  // grid point (d2 = 0). Any r works; r <= minCell visits at most 27 cells.
+  template <typename F>
+  void forEachNeighbor(float qx, float qy, float qz, float r, F&& f) const {
+    if (order_.empty()) return;
+    const float r2 = r * r;
+    int lo[3], hi[3];
+    const float q[3] = {qx, qy, qz};
+    for (int a = 0; a < 3; ++a) {
+      const int c = cellCoord(q[a], a);
+      const int span = static_cast<int>(std::floor(r * inv_[a])) + 1;
+      lo[a] = std::max(0, c - span);
+      hi[a] = std::min(dims_[a] - 1, c + span);
+    }
+    for (int cz = lo[2]; cz <= hi[2]; ++cz) {
+      for (int cy = lo[1]; cy <= hi[1]; ++cy) {
+        const std::size_t row = (static_cast<std::size_t>(cz) * dims_[1] + cy) * dims_[0];
+        const std::uint32_t begin = start_[row + lo[0]];
+        const std::uint32_t end = start_[row + hi[0] + 1];
+        // branch-free filtering in blocks, then the visits: most candidates are
+        // rejected, and a data-dependent branch per candidate mispredicts often
+        constexpr std::uint32_t kBlock = 64;
+        std::uint32_t hits[kBlock];
+        for (std::uint32_t b = begin; b < end; b += kBlock) {
+          const std::uint32_t e = std::min(end, b + kBlock);
+          const std::uint32_t len = e - b;
+          const float* __restrict xs = sx_.data() + b;
+          const float* __restrict ys = sy_.data() + b;
+          const float* __restrict zs = sz_.data() + b;
+          float d2s[kBlock];
+          for (std::uint32_t t = 0; t < len; ++t) {  // vectorises
+            const float dx = xs[t] - qx, dy = ys[t] - qy, dz = zs[t] - qz;
+            d2s[t] = dx * dx + dy * dy + dz * dz;
+          }
+          std::uint32_t m = 0;
+          for (std::uint32_t t = 0; t < len; ++t) {
+            hits[m] = b + t;
+            m += d2s[t] <= r2 ? 1u : 0u;
+          }
+          for (std::uint32_t h = 0; h < m; ++h) {
+            const std::uint32_t k = hits[h];
+            const float dx = sx_[k] - qx, dy = sy_[k] - qy, dz = sz_[k] - qz;
+            f(k, dx, dy, dz, dx * dx + dy * dy + dz * dz);
+          }
+        }
+      }
+    }
+  }
+
+ private:
+  int cellCoord(float v, int axis) const {
+    const float t = (v - origin_[axis]) * inv_[axis];
+    if (!(t > 0.0f)) return 0;  // also catches NaN
+    return std::min(dims_[axis] - 1, static_cast<int>(t));
+  }
+
+  float origin_[3] = {0, 0, 0};
+  float inv_[3] = {1, 1, 1};  // 1 / cell edge per axis
+  int dims_[3] = {1, 1, 1};
+  std::vector<std::uint32_t> cell_;   // cell of each point (n)
+  std::vector<std::uint32_t> start_;  // first sorted position of each cell (cells + 1)
+  std::vector<std::uint32_t> order_;  // sorted position -> point index (n)
+  std::vector<std::uint32_t> cursor_; // scratch for the counting sort (cells)
+  std::vector<float> sx_, sy_, sz_;   // positions in sorted order (n)
+};
+
+}  // namespace swarmsim

@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Install the Debian 12 packages swarmsim needs (only the missing ones), then
+# configure and build in Release. Idempotent: with everything present and the
+# build up to date it only runs an incremental `cmake --build`.
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+build="${SWARMSIM_BUILD_DIR:-$root/build}"
+
+packages=(build-essential cmake pkg-config libcli11-dev nlohmann-json3-dev libhdf5-dev
+          hdf5-tools libeigen3-dev catch2 python3 python3-h5py python3-matplotlib)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing ${missing[*]}" >&2
+  sudo_cmd=()
+  if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
+  "${sudo_cmd[@]}" apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}" >&2
+fi
+
+if [ ! -f "$build/CMakeCache.txt" ]; then
+  cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release >&2
+fi
+cmake --build "$build" -j "$(nproc)" >&2
