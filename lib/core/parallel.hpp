@@ -14,6 +14,18 @@ void parallelFor(std::size_t n, F&& body) {
   for (long long i = 0; i < count; ++i) body(static_cast<std::size_t>(i));
 }
 
+// as parallelFor, with dynamic scheduling in chunks (for uneven work per index)
+template <typename F>
+void parallelForDynamic(std::size_t n, std::size_t chunk, F&& body) {
+  const auto count = static_cast<long long>(n);
+  const int c = static_cast<int>(chunk);
+#pragma omp parallel for schedule(dynamic, c)
+  for (long long i = 0; i < count; ++i) body(static_cast<std::size_t>(i));
+}
+
+// index of the calling thread inside a parallel loop (0 outside), for per-thread scratch
+inline int threadIndex() { return omp_get_thread_num(); }
+
 // number of threads parallelFor will use
 inline int threadCount() { return omp_get_max_threads(); }
 inline void setThreadCount(int n) {

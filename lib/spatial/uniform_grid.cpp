@@ -80,6 +80,48 @@ void UniformGrid::build(const float* x, const float* y, const float* z, std::siz
   });
 }
 
+void UniformGrid::gatherCell(std::size_t c, float r, CellBlock& block) const {
+  const int cell[3] = {static_cast<int>(c % dims_[0]), static_cast<int>((c / dims_[0]) % dims_[1]),
+                       static_cast<int>(c / (static_cast<std::size_t>(dims_[0]) * dims_[1]))};
+  int lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    const int span = static_cast<int>(std::floor(r * inv_[a])) + 1;
+    lo[a] = std::max(0, cell[a] - span);
+    hi[a] = std::min(dims_[a] - 1, cell[a] + span);
+  }
+  std::size_t total = 0;
+  for (int cz = lo[2]; cz <= hi[2]; ++cz) {
+    for (int cy = lo[1]; cy <= hi[1]; ++cy) {
+      const std::size_t row = (static_cast<std::size_t>(cz) * dims_[1] + cy) * dims_[0];
+      total += start_[row + hi[0] + 1] - start_[row + lo[0]];
+    }
+  }
+  if (block.x.size() < total) {  // grows rarely; reused across steps
+    const std::size_t cap = total + total / 2 + 16;
+    block.x.resize(cap);
+    block.y.resize(cap);
+    block.z.resize(cap);
+    block.index.resize(cap);
+    block.d2.resize(cap);
+    block.hits.resize(cap);
+  }
+  std::size_t m = 0;
+  for (int cz = lo[2]; cz <= hi[2]; ++cz) {
+    for (int cy = lo[1]; cy <= hi[1]; ++cy) {
+      const std::size_t row = (static_cast<std::size_t>(cz) * dims_[1] + cy) * dims_[0];
+      const std::uint32_t b = start_[row + lo[0]], e = start_[row + hi[0] + 1];
+      // short rows: a plain loop beats memmove calls
+      for (std::uint32_t k = b; k < e; ++k, ++m) {
+        block.x[m] = sx_[k];
+        block.y[m] = sy_[k];
+        block.z[m] = sz_[k];
+        block.index[m] = k;
+      }
+    }
+  }
+  block.size = m;
+}
+
 void UniformGrid::gather(const std::vector<float>& src, std::vector<float>& dst) const {
   dst.resize(order_.size());
   parallelFor(order_.size(), [&](std::size_t k) { dst[k] = src[order_[k]]; });

@@ -16,6 +16,38 @@
 
 namespace swarmsim {
 
+// Candidate neighbours of one cell, gathered contiguously (per-thread scratch).
+// Queries from every point of the cell then scan one array, which is much
+// faster than walking short cell rows per point.
+struct CellBlock {
+  std::vector<float> x, y, z;          // candidate positions
+  std::vector<std::uint32_t> index;    // their sorted positions in the grid
+  std::vector<float> d2;               // scratch: squared distances of the last filter
+  std::vector<std::uint32_t> hits;     // block indices found by the last filter
+  std::size_t size = 0;
+
+  // block indices of the candidates within r of q go to hits[0, returned count),
+  // their squared distances stay in d2; deterministic order
+  std::size_t filter(float qx, float qy, float qz, float r) {
+    const float r2 = r * r;
+    const float* __restrict bx = x.data();
+    const float* __restrict by = y.data();
+    const float* __restrict bz = z.data();
+    float* __restrict dd = d2.data();
+    for (std::size_t j = 0; j < size; ++j) {  // vectorises
+      const float dx = bx[j] - qx, dy = by[j] - qy, dz = bz[j] - qz;
+      dd[j] = dx * dx + dy * dy + dz * dz;
+    }
+    std::uint32_t* __restrict h = hits.data();
+    std::size_t m = 0;
+    for (std::size_t j = 0; j < size; ++j) {  // branch-free compaction
+      h[m] = static_cast<std::uint32_t>(j);
+      m += dd[j] <= r2 ? 1u : 0u;
+    }
+    return m;
+  }
+};
+
 class UniformGrid {
  public:
   // bin n points; minCell > 0 is the smallest allowed cell edge (usually the
@@ -31,6 +63,13 @@ class UniformGrid {
   // dst[k] = src[order[k]] for every sorted position k (dst is resized)
   void gather(const std::vector<float>& src, std::vector<float>& dst) const;
   int dim(int axis) const { return dims_[axis]; }
+  std::size_t cellCount() const { return start_.empty() ? 0 : start_.size() - 1; }
+  // sorted positions [cellBegin(c), cellEnd(c)) are the points of cell c
+  std::uint32_t cellBegin(std::size_t c) const { return start_[c]; }
+  std::uint32_t cellEnd(std::size_t c) const { return start_[c + 1]; }
+  // gather into `block` every point of the cells that can hold a point within
+  // r of some point of cell c (a superset; use CellBlock::filter per query)
+  void gatherCell(std::size_t c, float r, CellBlock& block) const;
   float cellSize(int axis) const { return 1.0f / inv_[axis]; }
 
   // call f(k, dx, dy, dz, d2) for every sorted point k with d2 = |p_k - q|^2 <= r^2,
