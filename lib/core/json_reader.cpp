@@ -72,6 +72,21 @@ Json parseJsonText(const std::string& text, const std::string& file) {
     const auto colon = reason.find(": ", reason.find("parse error"));
     if (colon != std::string::npos) reason = reason.substr(colon + 2);
     throw InputError(file + ":" + std::to_string(line) + ":" + std::to_string(col) + ": malformed JSON: " + reason);
+  } catch (const Json::out_of_range& e) {
+    // a number too large for a double (e.g. 1e999 would be Inf); locate the literal
+    std::string what = e.what(), literal;
+    const auto q1 = what.find('\''), q2 = what.rfind('\'');
+    if (q1 != std::string::npos && q2 > q1) literal = what.substr(q1 + 1, q2 - q1 - 1);
+    std::string where = file;
+    const auto pos = literal.empty() ? std::string::npos : text.find(literal);
+    if (pos != std::string::npos) {
+      const std::size_t line = 1 + static_cast<std::size_t>(std::count(text.begin(), text.begin() + static_cast<long>(pos), '\n'));
+      const auto nl = text.rfind('\n', pos);
+      const std::size_t col = pos - (nl == std::string::npos ? 0 : nl + 1) + 1;
+      where += ":" + std::to_string(line) + ":" + std::to_string(col);
+    }
+    throw InputError(where + ": expected a finite number, got " + (literal.empty() ? "an out-of-range number" : literal) +
+                     " (out of range: it would be Inf)");
   }
 }
 
