@@ -105,12 +105,12 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
           out << j.dump() << "\n";
         } else {
           if (!headerDone) {
-            std::snprintf(line, sizeof line, "%-24s %-10s %10s %7s %13s %12s %12s\n", "scenario", "model", "agents",
+            std::snprintf(line, sizeof line, "%-24s %-10s %10s %7s %13s %12s %14s\n", "scenario", "model", "agents",
                           "threads", "preprocess_s", "steps/s", "ns/agent-step");
             out << line;
             headerDone = true;
           }
-          std::snprintf(line, sizeof line, "%-24s %-10s %10lld %7d %13.4f %12.2f %12.1f\n", row.scenario.c_str(),
+          std::snprintf(line, sizeof line, "%-24s %-10s %10lld %7d %13.4f %12.2f %14.1f\n", row.scenario.c_str(),
                         row.model.c_str(), static_cast<long long>(row.agents), row.threads, row.preprocessSeconds,
                         row.stepsPerSecond, row.nsPerAgentStep);
           out << line;

@@ -20,7 +20,14 @@ namespace {
 
 std::atomic<bool> gStop{false};
 
-extern "C" void onStopSignal(int) { gStop.store(true); }
+// first signal: stop at the next frame boundary; a second one: default action
+// (the run dies, leaving only its temporary file, never a half-written output)
+extern "C" void onStopSignal(int sig) {
+  if (gStop.exchange(true)) {
+    std::signal(sig, SIG_DFL);
+    std::raise(sig);
+  }
+}
 
 using Clock = std::chrono::steady_clock;
 double secondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
@@ -108,12 +115,18 @@ RunResult runScenario(const Scenario& scenario, const RunOptions& options) {
   result.agents = scenario.agentCount();
   // refuse early, before any precomputation (the writer checks again)
   std::error_code exists;
+  if (std::filesystem::is_directory(result.path, exists)) {
+    throw OutputError(result.path + ": is a directory (expected an output file path)");
+  }
   if (!options.force && std::filesystem::exists(result.path, exists)) {
     throw OutputError(result.path + ": output file exists (use --force to overwrite)");
   }
 
   Simulation sim(scenario);
-  TrajectoryWriter writer(result.path, scenario, sim.swarms(), options.force);
+  // the file records where it was written
+  Scenario recorded = scenario;
+  recorded.resolved["output"]["path"] = std::filesystem::absolute(result.path).lexically_normal().string();
+  TrajectoryWriter writer(result.path, recorded, sim.swarms(), options.force);
   writer.writeFrame(sim.time(), sim.swarms());
 
   const bool tty = isatty(STDERR_FILENO) != 0;

@@ -118,6 +118,28 @@ std::string JsonReader::pathOf(const std::string& key) const { return path_.empt
 
 bool JsonReader::has(const std::string& key) const { return object_->contains(key); }
 
+std::string JsonReader::closeUnreadKey(const std::string& key) const {
+  std::string best;
+  std::size_t bestDist = 3;
+  for (const auto& item : object_->items()) {
+    if (read_.count(item.key()) || item.key() == key) continue;
+    const std::size_t d = editDistance(item.key(), key);
+    if (d < bestDist) {
+      bestDist = d;
+      best = item.key();
+    }
+  }
+  return best;
+}
+
+void JsonReader::failMissing(const std::string& key, const std::string& expected) const {
+  const std::string typo = closeUnreadKey(key);
+  if (!typo.empty()) {
+    fail(typo, "unknown key (did you mean \"" + key + "\"?); \"" + key + "\" is required (expected " + expected + ")");
+  }
+  fail(key, "missing required key (expected " + expected + ")");
+}
+
 void JsonReader::fail(const std::string& key, const std::string& message) const {
   const std::string where = key.empty() ? (path_.empty() ? std::string("(top level)") : path_) : pathOf(key);
   throw InputError(file_ + ": " + where + ": " + message);
@@ -160,7 +182,7 @@ double JsonReader::number(const std::string& key, double fallback, Range range) 
 
 double JsonReader::requireNumber(const std::string& key, Range range) {
   const Json* v = lookup(key);
-  if (!v) fail(key, "missing required key (expected " + range.describe() + ")");
+  if (!v) failMissing(key, range.describe());
   const double d = checkedNumber(key, *v, range);
   record(key, d);
   return d;
@@ -183,7 +205,7 @@ std::int64_t JsonReader::requireInteger(const std::string& key, std::int64_t lo,
   } else {
     expected += " in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
   }
-  if (!v) fail(key, "missing required key (expected " + expected + ")");
+  if (!v) failMissing(key, expected);
   std::int64_t value = 0;
   if (v->is_number_integer()) {
     if (v->is_number_unsigned() && v->get<std::uint64_t>() > static_cast<std::uint64_t>(hi)) {
@@ -219,7 +241,7 @@ std::string JsonReader::string(const std::string& key, const std::string& fallba
 
 std::string JsonReader::requireString(const std::string& key) {
   const Json* v = lookup(key);
-  if (!v) fail(key, "missing required key (expected a string)");
+  if (!v) failMissing(key, "a string");
   if (!v->is_string() || v->get<std::string>().empty()) failExpected(key, "a non-empty string", *v);
   record(key, *v);
   return v->get<std::string>();
@@ -261,7 +283,7 @@ Vec3d JsonReader::vec3(const std::string& key, const Vec3d& fallback, Range rang
 
 Vec3d JsonReader::requireVec3(const std::string& key, Range range) {
   const Json* v = lookup(key);
-  if (!v) fail(key, "missing required key (expected an array of 3 numbers)");
+  if (!v) failMissing(key, "an array of 3 numbers");
   const Vec3d out = checkedVec3(key, *v, range);
   record(key, Json::array({out.x(), out.y(), out.z()}));
   return out;
@@ -292,7 +314,7 @@ std::vector<std::string> JsonReader::stringList(const std::string& key, const st
 JsonReader JsonReader::object(const std::string& key, bool required) {
   static const Json kEmpty = Json::object();
   const Json* v = lookup(key);
-  if (!v && required) fail(key, "missing required key (expected an object)");
+  if (!v && required) failMissing(key, "an object");
   if (v && !v->is_object()) failExpected(key, "an object", *v);
   Json* sub = nullptr;
   if (resolved_) {
@@ -306,7 +328,7 @@ std::vector<JsonReader> JsonReader::objectArray(const std::string& key, bool req
   static const Json kEmpty = Json::array();
   const Json* v = lookup(key);
   const std::string expected = "an array of at least " + std::to_string(minSize) + " object" + (minSize == 1 ? "" : "s");
-  if (!v && required) fail(key, "missing required key (expected " + expected + ")");
+  if (!v && required) failMissing(key, expected);
   if (!v) v = &kEmpty;
   if (!v->is_array() || v->size() < minSize) failExpected(key, expected, *v);
   Json* sub = nullptr;

@@ -53,7 +53,7 @@ class JsonReader {
 
   const std::string& file() const { return file_; }
   const std::string& path() const { return path_; }
-  // JSON path of a key of this object, e.g. "swarms[1].params.r_rep"
+  // JSON path of a key of this object, e.g. "swarms[1].params.repulsion_zone"
   std::string pathOf(const std::string& key) const;
   bool has(const std::string& key) const;
 
@@ -90,6 +90,10 @@ class JsonReader {
   double checkedNumber(const std::string& key, const Json& v, Range range) const;
   Vec3d checkedVec3(const std::string& key, const Json& v, Range range) const;
   void record(const std::string& key, Json value);
+  // a key of this object close to `key` (a likely typo) that was never read, or ""
+  std::string closeUnreadKey(const std::string& key) const;
+  // error for a missing required key; names a likely typo of it instead if there is one
+  [[noreturn]] void failMissing(const std::string& key, const std::string& expected) const;
 
   const Json* object_;
   std::string file_;

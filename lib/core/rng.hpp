@@ -41,7 +41,9 @@ inline std::array<std::uint32_t, 4> philox4x32(std::array<std::uint32_t, 4> ctr,
 }
 
 // The random stream of one agent at one step for one purpose. `stream` tells
-// swarms (or other users) apart within a purpose.
+// swarms (or other users) apart within a purpose. Counter layout: word 0-1 the
+// step, word 2 the agent id, word 3 = purpose << 24 | stream << 8 | block, so a
+// stream has 256 blocks (1,024 words) and `stream` must be < 65,536.
 class AgentRng {
  public:
   AgentRng(std::uint64_t seed, std::uint64_t step, std::uint32_t agent, RngPurpose purpose, std::uint32_t stream = 0)

@@ -147,6 +147,9 @@ Scenario parseScenario(const Json& json, const std::string& file) {
   r.string("description", "");
   const std::string stem = fs::path(file).stem().string();
   sc.name = r.string("name", stem.empty() ? "scenario" : stem);
+  if (sc.name.empty() || sc.name.find('/') != std::string::npos) {
+    r.failExpected("name", "a non-empty name without '/'", sc.name);
+  }
   sc.seed = static_cast<std::uint64_t>(r.integer("seed", 1, 0, kInt64Max));
   sc.dt = r.requireNumber("dt", Range::positive());
   sc.frames = r.requireInteger("frames", 1, 100'000'000);
@@ -204,6 +207,9 @@ Scenario parseScenario(const Json& json, const std::string& file) {
     } else {
       sc.output.path = path;
     }
+    // absolute, so the resolved scenario (also stored in the output) means the same from anywhere
+    sc.output.path = fs::absolute(sc.output.path).lexically_normal().string();
+    sc.resolved["output"]["path"] = sc.output.path;
     sc.output.quantities = o.stringList("quantities", {"position", "velocity"}, {"position", "velocity"});
     if (sc.output.quantities.empty()) o.failExpected("quantities", "at least one quantity", Json::array());
     sc.output.compression = static_cast<int>(o.integer("compression", 0, 0, 9));

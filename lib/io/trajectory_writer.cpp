@@ -43,10 +43,10 @@ TrajectoryWriter::TrajectoryWriter(const std::string& path, const Scenario& scen
   h5::quietErrors();
   const fs::path target(path);
   std::error_code ec;
+  if (fs::is_directory(target, ec)) throw OutputError(path + ": is a directory (expected an output file path)");
   if (fs::exists(target, ec) && !force) {
     throw OutputError(path + ": output file exists (use --force to overwrite)");
   }
-  if (fs::is_directory(target, ec)) throw OutputError(path + ": is a directory (expected an output file path)");
   const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
   fs::create_directories(dir, ec);
   if (ec) throw OutputError(path + ": cannot create folder " + dir.string() + ": " + ec.message());

@@ -16,15 +16,17 @@ void UniformGrid::build(const float* x, const float* y, const float* z, std::siz
   const float* p[3] = {x, y, z};
   for (int a = 0; a < 3; ++a) {
     float l = lo[a], h = hi[a];
+    long long nans = 0;
     const float* v = p[a];
     const long long count = static_cast<long long>(n);
-#pragma omp parallel for reduction(min : l) reduction(max : h) schedule(static)
+#pragma omp parallel for reduction(min : l) reduction(max : h) reduction(+ : nans) schedule(static)
     for (long long i = 0; i < count; ++i) {
       l = std::min(l, v[i]);
       h = std::max(h, v[i]);
+      nans += std::isnan(v[i]) ? 1 : 0;
     }
     if (n == 0) l = h = 0.0f;
-    if (!std::isfinite(l) || !std::isfinite(h)) {
+    if (nans > 0 || !std::isfinite(l) || !std::isfinite(h)) {
       throw std::runtime_error("UniformGrid::build: non-finite agent position");
     }
     lo[a] = l;
@@ -49,7 +51,7 @@ void UniformGrid::build(const float* x, const float* y, const float* z, std::siz
     const double ext = static_cast<double>(hi[a]) - lo[a];
     // every cell is at least `edge` wide; the last one absorbs the remainder
     const double cell = std::max(edge, dims_[a] > 1 ? ext / dims_[a] : edge);
-    inv_[a] = static_cast<float>(1.0 / cell);
+    inv_[a] = 1.0 / cell;
   }
 
   const std::size_t ncell = static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2];
@@ -85,7 +87,7 @@ void UniformGrid::gatherCell(std::size_t c, float r, CellBlock& block) const {
                        static_cast<int>(c / (static_cast<std::size_t>(dims_[0]) * dims_[1]))};
   int lo[3], hi[3];
   for (int a = 0; a < 3; ++a) {
-    const int span = static_cast<int>(std::floor(r * inv_[a])) + 1;
+    const int span = spanFor(r, a);
     lo[a] = std::max(0, cell[a] - span);
     hi[a] = std::min(dims_[a] - 1, cell[a] + span);
   }

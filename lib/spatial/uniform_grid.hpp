@@ -70,7 +70,7 @@ class UniformGrid {
   // gather into `block` every point of the cells that can hold a point within
   // r of some point of cell c (a superset; use CellBlock::filter per query)
   void gatherCell(std::size_t c, float r, CellBlock& block) const;
-  float cellSize(int axis) const { return 1.0f / inv_[axis]; }
+  float cellSize(int axis) const { return static_cast<float>(1.0 / inv_[axis]); }
 
   // call f(k, dx, dy, dz, d2) for every sorted point k with d2 = |p_k - q|^2 <= r^2,
   // where (dx, dy, dz) = p_k - q. Includes the query point itself if it is a
@@ -83,7 +83,7 @@ class UniformGrid {
     const float q[3] = {qx, qy, qz};
     for (int a = 0; a < 3; ++a) {
       const int c = cellCoord(q[a], a);
-      const int span = static_cast<int>(std::floor(r * inv_[a])) + 1;
+      const int span = spanFor(r, a);
       lo[a] = std::max(0, c - span);
       hi[a] = std::min(dims_[a] - 1, c + span);
     }
@@ -123,14 +123,21 @@ class UniformGrid {
   }
 
  private:
+  // cells to search on each side for radius r. Cell coordinates are computed
+  // in double, so they are exact to ~1e-12 cells; the 1e-6 slack makes a radius
+  // equal to the cell edge search two cells, while a radius of minCell (cells
+  // are built 1e-5 wider) searches one.
+  int spanFor(float r, int axis) const {
+    return static_cast<int>(std::floor(static_cast<double>(r) * inv_[axis] * (1.0 + 1e-6))) + 1;
+  }
   int cellCoord(float v, int axis) const {
-    const float t = (v - origin_[axis]) * inv_[axis];
-    if (!(t > 0.0f)) return 0;  // also catches NaN
+    const double t = (static_cast<double>(v) - origin_[axis]) * inv_[axis];
+    if (!(t > 0.0)) return 0;  // also catches NaN
     return std::min(dims_[axis] - 1, static_cast<int>(t));
   }
 
-  float origin_[3] = {0, 0, 0};
-  float inv_[3] = {1, 1, 1};  // 1 / cell edge per axis
+  double origin_[3] = {0, 0, 0};
+  double inv_[3] = {1, 1, 1};  // 1 / cell edge per axis
   int dims_[3] = {1, 1, 1};
   std::vector<std::uint32_t> cell_;   // cell of each point (n)
   std::vector<std::uint32_t> start_;  // first sorted position of each cell (cells + 1)

@@ -31,8 +31,8 @@ struct BoidsParams {
   double attractionZone = 0.15;  // w_att, m (R3 = R2 + w_att)
   double fieldOfView = 270.0;    // full attraction view angle, degrees
   double repulsion = 1.0;        // f_r, m/s per neighbour
-  double alignment = 0.02;       // f_a, m/s per neighbour
-  double attraction = 0.01;      // f_t, m/s per neighbour
+  double alignment = 0.01;       // f_a, m/s per neighbour
+  double attraction = 0.0005;      // f_t, m/s per neighbour
   double centering = 0.1;        // f_c: pull toward `center`, m/s
   double centeringRadius = 0.0;  // R_c: inside it the pull falls linearly to 0, m (0 = constant, the blog)
   Vec3d center = Vec3d::Zero();  // c, m (default: domain centre)

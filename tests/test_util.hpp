@@ -1,0 +1,100 @@
+#pragma once
+// Helpers shared by the swarmsim tests: a unique temporary folder per test,
+// file helpers and a way to run the built swarmsim binary.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <system_error>
+#include <vector>
+
+namespace swarmsim_test {
+
+namespace fs = std::filesystem;
+
+// A fresh, uniquely named folder under the system temp directory, removed
+// (with everything in it) when the object goes out of scope.
+class TempDir {
+ public:
+  TempDir() {
+    std::string tmpl = (fs::temp_directory_path() / "swarmsim-test-XXXXXX").string();
+    std::vector<char> buf(tmpl.begin(), tmpl.end());
+    buf.push_back('\0');
+    if (!mkdtemp(buf.data())) throw std::runtime_error("mkdtemp failed for " + tmpl);
+    path_ = fs::path(buf.data());
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  const fs::path& path() const { return path_; }
+  std::string file(const std::string& name) const { return (path_ / name).string(); }
+  // names of the entries in the folder (not recursive), sorted
+  std::vector<std::string> entries() const {
+    std::vector<std::string> out;
+    for (const auto& e : fs::directory_iterator(path_)) out.push_back(e.path().filename().string());
+    std::sort(out.begin(), out.end());
+    return out;
+  }
+
+ private:
+  fs::path path_;
+};
+
+inline void writeText(const std::string& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  if (!out) throw std::runtime_error("cannot write " + path);
+  out << text;
+}
+
+inline std::string readText(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// single-quote for /bin/sh
+inline std::string shellQuote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) {
+    if (c == '\'') {
+      out += "'\\''";
+    } else {
+      out += c;
+    }
+  }
+  return out + "'";
+}
+
+struct CommandResult {
+  int exitCode = -1;  // exit status, or -1 if the command did not exit normally
+  std::string out, err;
+};
+
+// Run a shell command line with stdout and stderr captured into files of `dir`.
+inline CommandResult runCommand(const std::string& commandLine, const fs::path& dir) {
+  const std::string outFile = (dir / "cmd.stdout").string(), errFile = (dir / "cmd.stderr").string();
+  const std::string full = commandLine + " >" + shellQuote(outFile) + " 2>" + shellQuote(errFile) + " </dev/null";
+  const int status = std::system(full.c_str());
+  CommandResult r;
+  if (status != -1 && WIFEXITED(status)) r.exitCode = WEXITSTATUS(status);
+  r.out = readText(outFile);
+  r.err = readText(errFile);
+  std::error_code ec;
+  fs::remove(outFile, ec);
+  fs::remove(errFile, ec);
+  return r;
+}
+
+}  // namespace swarmsim_test
