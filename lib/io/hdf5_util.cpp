@@ -63,26 +63,23 @@ std::string readStringAttr(hid_t obj, const char* name) {
   return std::string(buf.data());
 }
 
-double readDoubleAttr(hid_t obj, const char* name) {
-  double v = 0;
+namespace {
+template <typename T>
+T readScalarAttr(hid_t obj, const char* name, hid_t memType) {
+  T v{};
   H5Handle attr(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose);
   if (!attr.valid()) check(-1, "open", name);
-  check(H5Aread(attr, H5T_NATIVE_DOUBLE, &v), "read", name);
+  check(H5Aread(attr, memType, &v), "read", name);
   return v;
 }
+}  // namespace
+
+double readDoubleAttr(hid_t obj, const char* name) { return readScalarAttr<double>(obj, name, H5T_NATIVE_DOUBLE); }
 std::int64_t readIntAttr(hid_t obj, const char* name) {
-  std::int64_t v = 0;
-  H5Handle attr(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose);
-  if (!attr.valid()) check(-1, "open", name);
-  check(H5Aread(attr, H5T_NATIVE_INT64, &v), "read", name);
-  return v;
+  return readScalarAttr<std::int64_t>(obj, name, H5T_NATIVE_INT64);
 }
 std::uint64_t readUIntAttr(hid_t obj, const char* name) {
-  std::uint64_t v = 0;
-  H5Handle attr(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose);
-  if (!attr.valid()) check(-1, "open", name);
-  check(H5Aread(attr, H5T_NATIVE_UINT64, &v), "read", name);
-  return v;
+  return readScalarAttr<std::uint64_t>(obj, name, H5T_NATIVE_UINT64);
 }
 
 }  // namespace swarmsim::h5
