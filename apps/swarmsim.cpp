@@ -101,6 +101,8 @@ int main(int argc, char** argv) {
   bench->add_option("--threads", benchThreads, "Thread counts T[,T...] (default: all cores)")->type_name("T[,T...]");
   bench->add_option("--repeat", benchRepeat, "Repetitions; the median is reported")->check(CLI::Range(1, 1000));
   bench->add_flag("--json", benchJson, "JSON lines instead of a table");
+  std::vector<std::string> benchSets;
+  bench->add_option("--set", benchSets, "Override a value of every benched scenario (as for run)")->type_name("PATH=VALUE");
 
   try {
     app.parse(argc, argv);
@@ -113,6 +115,7 @@ int main(int argc, char** argv) {
     if (*run) {
       if (threads > 0) setThreadCount(threads);
       const Scenario sc = loadScenario(scenarioFile, overridesFrom(sets, frames, seed));
+      for (const auto& w : sc.warnings) std::fprintf(stderr, "swarmsim: warning: %s\n", w.c_str());
       RunOptions opt;
       opt.output = outPath;
       opt.force = force;
@@ -124,6 +127,7 @@ int main(int argc, char** argv) {
     }
     if (*validate) {
       const Scenario sc = loadScenario(validateFile, validateSets);
+      for (const auto& w : sc.warnings) std::fprintf(stderr, "swarmsim: warning: %s\n", w.c_str());
       std::cout << sc.resolved.dump(2) << "\n";
       return kExitOk;
     }
@@ -153,6 +157,7 @@ int main(int argc, char** argv) {
     if (*bench) {
       BenchOptions opt;
       opt.scenarios = benchFiles;
+      opt.overrides = benchSets;
       if (!benchAgents.empty()) opt.agents = parseList<std::int64_t>(benchAgents, "--agents");
       if (!benchThreads.empty()) opt.threads = parseList<int>(benchThreads, "--threads");
       opt.frames = benchFrames;

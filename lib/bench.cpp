@@ -23,6 +23,16 @@ struct BuiltinCase {
 // radius 0.3 m) at 88 agents/m^3, i.e. about 10 neighbours inside the
 // attraction radius (88 * 4/3 pi 0.3^3 = 10.0).
 const BuiltinCase kCases[] = {
+    {"fmm-128", R"({
+      "name": "fmm-128", "description": "fast marching alone: a 128^3 cost grid, one point goal, no obstacles",
+      "seed": 1, "dt": 0.01, "frames": 2, "steps_per_frame": 1,
+      "domain": {"min": [0, 0, 0], "max": [128, 128, 128]},
+      "swarms": [{"name": "probe", "count": 1, "model": "field",
+                  "spawn": {"type": "sphere", "center": [10, 10, 10], "radius": 0},
+                  "params": {"speed": 1.0, "cost_cells": [128, 128, 128],
+                             "noise": {"cells": [4, 4, 4], "gain": 0},
+                             "goals": [{"type": "sphere", "center": [64, 64, 64], "radius": 0.5}]}}]
+    })"},
     {"boids-100k", R"({
       "name": "boids-100k", "seed": 7, "dt": 0.01, "frames": 20, "steps_per_frame": 1,
       "domain": {"min": [-12, -12, -12], "max": [12, 12, 12]},
@@ -67,6 +77,7 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
   for (const auto& src : sources) {
     for (const std::int64_t agents : agentsList) {
       Json json = src.json;
+      for (const auto& o : options.overrides) applyOverride(json, o);
       if (agents > 0) rescaleAgents(json, agents, src.label);
       const Scenario sc = parseScenario(json, src.label);
       for (const int threads : threadList) {
@@ -74,6 +85,7 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
         const std::int64_t frames = options.frames > 0 ? options.frames : std::min<std::int64_t>(sc.frames, 10);
         const std::int64_t steps = std::max<std::int64_t>(1, frames * sc.stepsPerFrame);
         std::vector<double> pre, rate;
+        Json info = Json::array();
         for (int r = 0; r < std::max(1, options.repeat); ++r) {
           Simulation sim(sc);
           pre.push_back(sim.preprocessSeconds());
@@ -82,6 +94,8 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
           for (std::int64_t k = 0; k < steps; ++k) sim.step();
           const double s = std::chrono::duration<double>(Clock::now() - t0).count();
           rate.push_back(static_cast<double>(steps) / s);
+          info = Json::array();
+          for (std::size_t i = 0; i < sc.swarms.size(); ++i) info.push_back(sim.model(i).benchInfo());
         }
         BenchRow row;
         row.scenario = sc.name;
@@ -94,6 +108,7 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
         row.stepsPerSecond = median(rate);
         row.nsPerAgentStep = 1e9 / (row.stepsPerSecond * static_cast<double>(row.agents));
         row.steps = steps;
+        row.modelInfo = info;
         rows.push_back(row);
         char line[256];
         if (options.json) {
@@ -101,7 +116,7 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
                     {"agents", row.agents},             {"threads", row.threads},
                     {"preprocess_s", row.preprocessSeconds}, {"steps_per_s", row.stepsPerSecond},
                     {"ns_per_agent_step", row.nsPerAgentStep}, {"steps", row.steps},
-                    {"repeat", options.repeat}};
+                    {"repeat", options.repeat}, {"model_info", row.modelInfo}};
           out << j.dump() << "\n";
         } else {
           if (!headerDone) {
@@ -114,6 +129,23 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
                         row.model.c_str(), static_cast<long long>(row.agents), row.threads, row.preprocessSeconds,
                         row.stepsPerSecond, row.nsPerAgentStep);
           out << line;
+          // model facts (e.g. the field model's Table 1 columns), one line per swarm that has any
+          for (std::size_t i = 0; i < row.modelInfo.size(); ++i) {
+            if (row.modelInfo[i].empty()) continue;
+            std::string facts;
+            for (const auto& item : row.modelInfo[i].items()) {
+              std::string v;
+              if (item.value().is_number_float()) {
+                char num[32];
+                std::snprintf(num, sizeof num, "%.4g", item.value().get<double>());
+                v = num;
+              } else {
+                v = item.value().is_string() ? item.value().get<std::string>() : item.value().dump();
+              }
+              facts += " " + item.key() + "=" + v;
+            }
+            out << "    " << sc.swarms[i].name << ":" << facts << "\n";
+          }
         }
         out.flush();
       }

@@ -5,12 +5,15 @@
 #include <string>
 #include <vector>
 
+#include "core/json_reader.hpp"
+
 namespace swarmsim {
 
 struct BenchOptions {
   std::vector<std::string> scenarios;  // files; empty: the built-in cases
   std::vector<std::int64_t> agents;    // rescale to these totals (density kept); empty: as in the scenario
   std::vector<int> threads;            // thread counts; empty: the current default
+  std::vector<std::string> overrides;  // --set PATH=VALUE, applied to every scenario
   std::int64_t frames = 0;             // frames to time (0: min(scenario frames, 10))
   int repeat = 3;                      // repetitions; the median is reported
   bool json = false;                   // JSON lines instead of a table
@@ -24,6 +27,7 @@ struct BenchRow {
   double stepsPerSecond = 0.0;     // median
   double nsPerAgentStep = 0.0;     // from the median steps/s
   std::int64_t steps = 0;          // steps timed per repetition
+  Json modelInfo;                  // per swarm, Model::benchInfo() (last repetition)
 };
 
 // names of the built-in cases

@@ -103,9 +103,14 @@ Simulation::Simulation(const Scenario& scenario) : world_(scenario.world()) {
 
 void Simulation::step() {
   for (std::size_t i = 0; i < swarms_.size(); ++i) {
-    models_[i]->step(world_, swarms_[i], StepInfo{step_, static_cast<std::uint32_t>(i)});
+    models_[i]->step(world_, swarms_[i], StepInfo{step_, static_cast<std::uint32_t>(i), time()});
   }
   ++step_;
+}
+
+void Simulation::takeFrameStats(std::vector<std::vector<double>>& out) {
+  out.resize(models_.size());
+  for (std::size_t i = 0; i < models_.size(); ++i) models_[i]->takeFrameStats(out[i]);
 }
 
 RunResult runScenario(const Scenario& scenario, const RunOptions& options) {
@@ -126,8 +131,12 @@ RunResult runScenario(const Scenario& scenario, const RunOptions& options) {
   // the file records where it was written
   Scenario recorded = scenario;
   recorded.resolved["output"]["path"] = std::filesystem::absolute(result.path).lexically_normal().string();
-  TrajectoryWriter writer(result.path, recorded, sim.swarms(), options.force);
-  writer.writeFrame(sim.time(), sim.swarms());
+  std::vector<std::vector<std::string>> statNames;
+  for (std::size_t i = 0; i < scenario.swarms.size(); ++i) statNames.push_back(sim.model(i).statNames());
+  TrajectoryWriter writer(result.path, recorded, sim.swarms(), statNames, options.force);
+  std::vector<std::vector<double>> stats(statNames.size());
+  for (std::size_t i = 0; i < stats.size(); ++i) stats[i].assign(statNames[i].size(), 0.0);  // frame 0: no step yet
+  writer.writeFrame(sim.time(), sim.swarms(), stats);
 
   const bool tty = isatty(STDERR_FILENO) != 0;
   auto lastReport = Clock::now();
@@ -137,7 +146,8 @@ RunResult runScenario(const Scenario& scenario, const RunOptions& options) {
     if (gStop.load()) break;
     for (std::int64_t k = 0; k < scenario.stepsPerFrame; ++k) sim.step();
     loopSteps += static_cast<std::uint64_t>(scenario.stepsPerFrame);
-    writer.writeFrame(sim.time(), sim.swarms());
+    sim.takeFrameStats(stats);
+    writer.writeFrame(sim.time(), sim.swarms(), stats);
     if (options.progress && (secondsSince(lastReport) >= 0.5 || f + 1 == scenario.frames)) {
       lastReport = Clock::now();
       const double elapsed = secondsSince(loopStart);

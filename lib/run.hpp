@@ -28,6 +28,9 @@ class Simulation {
   std::uint64_t stepsDone() const { return step_; }
   double time() const { return static_cast<double>(step_) * world_.dt; }
   double preprocessSeconds() const { return preprocessSeconds_; }
+  const Model& model(std::size_t swarm) const { return *models_[swarm]; }
+  // per swarm, the models' statistics since the last call (see Model::takeFrameStats)
+  void takeFrameStats(std::vector<std::vector<double>>& out);
 
  private:
   World world_;

@@ -269,7 +269,7 @@ TEST_CASE("Trajectory overwrite needs force", "[io]") {
   SECTION("TrajectoryWriter refuses without force") {
     std::vector<swarmsim::SwarmState> swarms;
     for (std::uint32_t s = 0; s < sc.swarms.size(); ++s) swarms.push_back(swarmsim::spawnSwarm(sc.swarms[s], sc.seed, s));
-    CHECK_THROWS_AS(swarmsim::TrajectoryWriter(out, sc, swarms, false), swarmsim::OutputError);
+    CHECK_THROWS_AS(swarmsim::TrajectoryWriter(out, sc, swarms, {}, false), swarmsim::OutputError);
     CHECK(swarmsim_test::readText(out) == before);
     requireOnly(dir, {"traj.h5"});
   }
@@ -292,8 +292,8 @@ TEST_CASE("Trajectory writer without finish leaves no file", "[io]") {
   std::vector<swarmsim::SwarmState> swarms;
   for (std::uint32_t s = 0; s < sc.swarms.size(); ++s) swarms.push_back(swarmsim::spawnSwarm(sc.swarms[s], sc.seed, s));
   {
-    swarmsim::TrajectoryWriter w(out, sc, swarms, false);
-    w.writeFrame(0.0, swarms);
+    swarmsim::TrajectoryWriter w(out, sc, swarms, {}, false);
+    w.writeFrame(0.0, swarms, {});
     CHECK(w.framesWritten() == 1);
     // while writing, only a temporary file exists, next to the target
     std::size_t tmp = 0;

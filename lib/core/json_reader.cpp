@@ -162,6 +162,11 @@ const Json* JsonReader::raw(const std::string& key) {
   return v;
 }
 
+void JsonReader::resolve(const std::string& key, Json value) {
+  read_.insert(key);
+  record(key, std::move(value));
+}
+
 void JsonReader::record(const std::string& key, Json value) {
   if (resolved_) (*resolved_)[key] = std::move(value);
 }

@@ -78,6 +78,8 @@ class JsonReader {
 
   // raw access: marks the key read, records the value verbatim
   const Json* raw(const std::string& key);
+  // record a value computed from others (a derived default) as the key's resolved value
+  void resolve(const std::string& key, Json value);
 
   // error for unknown keys (keys that were never read)
   void finish() const;
@@ -92,6 +94,8 @@ class JsonReader {
   void record(const std::string& key, Json value);
   // a key of this object close to `key` (a likely typo) that was never read, or ""
   std::string closeUnreadKey(const std::string& key) const;
+
+ public:
   // error for a missing required key; names a likely typo of it instead if there is one
   [[noreturn]] void failMissing(const std::string& key, const std::string& expected) const;
 

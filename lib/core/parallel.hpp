@@ -7,8 +7,16 @@
 
 namespace swarmsim {
 
+// below this many indices a loop runs on the calling thread: waking the team
+// costs more than it saves, and on a busy machine a barrier can stall
+inline constexpr std::size_t kSerialBelow = 2048;
+
 template <typename F>
 void parallelFor(std::size_t n, F&& body) {
+  if (n < kSerialBelow) {
+    for (std::size_t i = 0; i < n; ++i) body(i);
+    return;
+  }
   const auto count = static_cast<long long>(n);
 #pragma omp parallel for schedule(static)
   for (long long i = 0; i < count; ++i) body(static_cast<std::size_t>(i));
@@ -23,7 +31,8 @@ void parallelForDynamic(std::size_t n, std::size_t chunk, F&& body) {
   for (long long i = 0; i < count; ++i) body(static_cast<std::size_t>(i));
 }
 
-// index of the calling thread inside a parallel loop (0 outside), for per-thread scratch
+// index of the calling thread inside a parallel loop (0 outside, and in loops
+// run serially), for per-thread scratch
 inline int threadIndex() { return omp_get_thread_num(); }
 
 // number of threads parallelFor will use

@@ -15,6 +15,8 @@ enum class RngPurpose : std::uint32_t {
   kSpawnPosition = 1,
   kSpawnVelocity = 2,
   kJitter = 3,
+  kNoise = 4,
+  kPhototaxis = 5,
 };
 
 namespace detail {

@@ -2,10 +2,13 @@
 // The read-only world every model sees: domain bounds and time stepping.
 // Built once from the scenario; never changed by a step.
 #include <cstdint>
+#include <memory>
 
 #include "core/vec.hpp"
 
 namespace swarmsim {
+
+struct Obstacles;  // geometry/obstacles.hpp
 
 struct Aabb {
   Vec3d min = Vec3d::Zero();
@@ -18,12 +21,14 @@ struct World {
   Aabb domain;             // metres
   double dt = 0.0;         // seconds per step
   std::uint64_t seed = 0;  // scenario seed
+  std::shared_ptr<const Obstacles> obstacles;  // never null once built from a scenario
 };
 
 // what a model needs to know about the step it is taking
 struct StepInfo {
   std::uint64_t step = 0;          // index of the step being taken (0 = first)
   std::uint32_t swarmIndex = 0;    // which swarm of the scenario, for random streams
+  double time = 0.0;               // simulated time at the start of the step, s
 };
 
 }  // namespace swarmsim

@@ -6,6 +6,8 @@
 #include <set>
 
 #include "core/error.hpp"
+#include "geometry/mesh.hpp"
+#include "geometry/obstacles.hpp"
 
 namespace swarmsim {
 
@@ -35,6 +37,51 @@ SpawnRegion readSpawn(JsonReader r) {
   }
   r.finish();
   return s;
+}
+
+// obstacles: OBJ meshes (placed by translate, rotate, scale), spheres and boxes
+std::shared_ptr<const Obstacles> readObstacles(JsonReader& r, const std::string& file, std::vector<std::string>& warnings) {
+  auto obs = std::make_shared<Obstacles>();
+  for (JsonReader& o : r.objectArray("obstacles", false, 0)) {
+    const std::string type = o.choice("type", "", {"mesh", "sphere", "box"});
+    if (type.empty()) o.failMissing("type", "one of \"mesh\", \"sphere\", \"box\"");
+    if (type == "mesh") {
+      const std::string rel = o.requireString("file");
+      const fs::path path = fs::path(rel).is_relative() ? fs::path(file).parent_path() / rel : fs::path(rel);
+      MeshTransform t;
+      t.translate = o.vec3("translate", Vec3d::Zero());
+      t.rotateDeg = o.vec3("rotate", Vec3d::Zero());
+      const Json* scale = o.raw("scale");
+      if (scale && scale->is_number()) {
+        const double k = scale->get<double>();
+        if (!(k > 0.0) || !std::isfinite(k)) o.failExpected("scale", "a number > 0 or an array of 3 numbers > 0", *scale);
+        t.scale = Vec3d::Constant(k);
+      } else if (scale) {
+        t.scale = o.vec3("scale", Vec3d::Ones(), Range::positive());
+      }
+      TriangleMesh mesh = loadObj(path.lexically_normal().string(), t);
+      if (!isWatertight(mesh)) {
+        warnings.push_back(path.lexically_normal().string() +
+                           ": mesh is not watertight; inside and outside are decided by majority voting (docs/models/field.md)");
+      }
+      obs->meshes.push_back(std::move(mesh));
+    } else if (type == "sphere") {
+      SphereObstacle sp;
+      sp.center = o.requireVec3("center");
+      sp.radius = o.requireNumber("radius", Range::positive());
+      obs->spheres.push_back(sp);
+    } else {
+      BoxObstacle b;
+      b.min = o.requireVec3("min");
+      b.max = o.requireVec3("max");
+      for (int a = 0; a < 3; ++a) {
+        if (!(b.max[a] > b.min[a])) o.fail("max", std::string("expected max > min on every axis (axis ") + "xyz"[a] + ")");
+      }
+      obs->boxes.push_back(b);
+    }
+    o.finish();
+  }
+  return obs;
 }
 
 // the parts of a --set path: keys and indices
@@ -166,6 +213,7 @@ Scenario parseScenario(const Json& json, const std::string& file) {
     }
     d.finish();
   }
+  sc.obstacles = readObstacles(r, file, sc.warnings);
   const World world = sc.world();
   std::set<std::string> names;
   std::vector<JsonReader> swarms = r.objectArray("swarms", true, 1);

@@ -37,17 +37,19 @@ struct OutputSpec {
 
 struct Scenario {
   std::string file;  // the scenario file as given
+  std::vector<std::string> warnings;  // non-fatal findings (e.g. a mesh that is not watertight)
   std::string name;
   std::uint64_t seed = 0;
   double dt = 0.0;
   std::int64_t frames = 0;
   std::int64_t stepsPerFrame = 1;
   Aabb domain;
+  std::shared_ptr<const Obstacles> obstacles;  // loaded meshes, spheres, boxes
   std::vector<SwarmSpec> swarms;
   OutputSpec output;
   Json resolved;  // the scenario with every default filled in
 
-  World world() const { return World{domain, dt, seed}; }
+  World world() const { return World{domain, dt, seed, obstacles}; }
   std::int64_t agentCount() const;
 };
 

@@ -38,7 +38,8 @@ H5Handle createExtendible(hid_t group, const char* name, hid_t type, int rank, c
 }  // namespace
 
 TrajectoryWriter::TrajectoryWriter(const std::string& path, const Scenario& scenario,
-                                   const std::vector<SwarmState>& swarms, bool force)
+                                   const std::vector<SwarmState>& swarms,
+                                   const std::vector<std::vector<std::string>>& statNames, bool force)
     : path_(path) {
   h5::quietErrors();
   const fs::path target(path);
@@ -104,6 +105,12 @@ TrajectoryWriter::TrajectoryWriter(const std::string& path, const Scenario& scen
       if (!ids.valid() || H5Dwrite(ids, H5T_NATIVE_UINT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, idRows.data()) < 0) {
         throw OutputError("cannot write ids of swarm '" + s.name + "'");
       }
+      if (i < statNames.size() && !statNames[i].empty()) {
+        H5Handle sg(H5Gcreate2(d.group, "stats", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+        for (const auto& name : statNames[i]) {
+          d.stats.push_back(createExtendible(sg, name.c_str(), H5T_IEEE_F64LE, 1, tdims, tchunk, 0));
+        }
+      }
       swarms_.push_back(std::move(d));
     }
   } catch (const std::exception& e) {
@@ -147,20 +154,28 @@ void TrajectoryWriter::appendVec3(hid_t dataset, const SwarmState& s, bool veloc
   }
 }
 
-void TrajectoryWriter::writeFrame(double time, const std::vector<SwarmState>& swarms) {
+void TrajectoryWriter::appendScalar(hid_t dataset, double value, const char* what) {
+  const hsize_t f = static_cast<hsize_t>(frames_);
+  const hsize_t newDims[1] = {f + 1}, start[1] = {f}, count[1] = {1};
+  if (H5Dset_extent(dataset, newDims) < 0) throw OutputError(path_ + ": cannot extend dataset '" + what + "'");
+  H5Handle fspace(H5Dget_space(dataset), H5Sclose);
+  H5Sselect_hyperslab(fspace, H5S_SELECT_SET, start, nullptr, count, nullptr);
+  H5Handle mspace(H5Screate_simple(1, count, nullptr), H5Sclose);
+  if (H5Dwrite(dataset, H5T_NATIVE_DOUBLE, mspace, fspace, H5P_DEFAULT, &value) < 0) {
+    throw OutputError(path_ + ": cannot write '" + what + "' of frame " + std::to_string(frames_));
+  }
+}
+
+void TrajectoryWriter::writeFrame(double time, const std::vector<SwarmState>& swarms,
+                                  const std::vector<std::vector<double>>& stats) {
   for (std::size_t i = 0; i < swarms.size(); ++i) {
     if (swarms_[i].position.valid()) appendVec3(swarms_[i].position, swarms[i], false);
     if (swarms_[i].velocity.valid()) appendVec3(swarms_[i].velocity, swarms[i], true);
+    for (std::size_t k = 0; k < swarms_[i].stats.size(); ++k) {
+      appendScalar(swarms_[i].stats[k], i < stats.size() && k < stats[i].size() ? stats[i][k] : 0.0, "stats");
+    }
   }
-  const hsize_t f = static_cast<hsize_t>(frames_);
-  const hsize_t newDims[1] = {f + 1}, start[1] = {f}, count[1] = {1};
-  if (H5Dset_extent(time_, newDims) < 0) throw OutputError(path_ + ": cannot extend dataset 'time'");
-  H5Handle fspace(H5Dget_space(time_), H5Sclose);
-  H5Sselect_hyperslab(fspace, H5S_SELECT_SET, start, nullptr, count, nullptr);
-  H5Handle mspace(H5Screate_simple(1, count, nullptr), H5Sclose);
-  if (H5Dwrite(time_, H5T_NATIVE_DOUBLE, mspace, fspace, H5P_DEFAULT, &time) < 0) {
-    throw OutputError(path_ + ": cannot write time of frame " + std::to_string(frames_));
-  }
+  appendScalar(time_, time, "time");
   ++frames_;
 }
 

@@ -23,14 +23,15 @@ class TrajectoryWriter {
  public:
   // creates the temporary file; throws OutputError if it exists and !force,
   // or if it cannot be created
+  // statNames[i]: the per-frame statistics of swarm i (Model::statNames)
   TrajectoryWriter(const std::string& path, const Scenario& scenario, const std::vector<SwarmState>& swarms,
-                   bool force);
+                   const std::vector<std::vector<std::string>>& statNames, bool force);
   TrajectoryWriter(const TrajectoryWriter&) = delete;
   TrajectoryWriter& operator=(const TrajectoryWriter&) = delete;
   ~TrajectoryWriter();
 
-  // append one frame at simulated time `time` (seconds)
-  void writeFrame(double time, const std::vector<SwarmState>& swarms);
+  // append one frame at simulated time `time` (seconds); stats[i] in statNames[i] order
+  void writeFrame(double time, const std::vector<SwarmState>& swarms, const std::vector<std::vector<double>>& stats);
   // write closing attributes, close and rename to the requested path
   void finish(bool interrupted);
 
@@ -40,8 +41,10 @@ class TrajectoryWriter {
  private:
   struct SwarmDatasets {
     H5Handle group, position, velocity;
+    std::vector<H5Handle> stats;  // /swarms/<name>/stats/<stat>, (frames) float64
   };
   void appendVec3(hid_t dataset, const SwarmState& s, bool velocity);
+  void appendScalar(hid_t dataset, double value, const char* what);
 
   std::string path_, tmpPath_;
   H5Handle file_, time_;

@@ -9,6 +9,7 @@
 // depend on the number of threads.
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "core/json_reader.hpp"
 #include "core/swarm_state.hpp"
@@ -21,6 +22,13 @@ class Model {
   virtual ~Model() = default;
   // advance the swarm by one time step world.dt
   virtual void step(const World& world, SwarmState& state, const StepInfo& info) = 0;
+  // names of the per-frame statistics this model reports (e.g. "mde_fraction");
+  // each becomes a dataset /swarms/<name>/stats/<stat> with one value per frame
+  virtual std::vector<std::string> statNames() const { return {}; }
+  // the statistics over the steps since the last call, in statNames() order
+  virtual void takeFrameStats(std::vector<double>& values) { values.clear(); }
+  // facts for `swarmsim bench` (grid sizes, preprocessing split...), a JSON object
+  virtual Json benchInfo() const { return Json::object(); }
 };
 
 class ModelConfig {

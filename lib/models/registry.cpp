@@ -1,5 +1,6 @@
 // The one place models are registered: one line per model.
 #include "models/boids/boids.hpp"
+#include "models/field/field.hpp"
 #include "models/model.hpp"
 
 namespace swarmsim {
@@ -7,6 +8,7 @@ namespace swarmsim {
 const std::vector<ModelEntry>& modelRegistry() {
   static const std::vector<ModelEntry> entries = {
       {"boids", "three-zone boids (repulsion, alignment, attraction), blog2018", &parseBoids},
+      {"field", "curl noise + fast-marching cost field with MDE, wang2014", &parseField},
   };
   return entries;
 }

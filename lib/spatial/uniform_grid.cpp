@@ -19,7 +19,7 @@ void UniformGrid::build(const float* x, const float* y, const float* z, std::siz
     long long nans = 0;
     const float* v = p[a];
     const long long count = static_cast<long long>(n);
-#pragma omp parallel for reduction(min : l) reduction(max : h) reduction(+ : nans) schedule(static)
+#pragma omp parallel for reduction(min : l) reduction(max : h) reduction(+ : nans) schedule(static) if (n >= kSerialBelow)
     for (long long i = 0; i < count; ++i) {
       l = std::min(l, v[i]);
       h = std::max(h, v[i]);

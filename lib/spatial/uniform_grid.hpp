@@ -14,16 +14,18 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/parallel.hpp"
+
 namespace swarmsim {
 
 // Candidate neighbours of one cell, gathered contiguously (per-thread scratch).
 // Queries from every point of the cell then scan one array, which is much
 // faster than walking short cell rows per point.
 struct CellBlock {
-  std::vector<float> x, y, z;          // candidate positions
-  std::vector<std::uint32_t> index;    // their sorted positions in the grid
-  std::vector<float> d2;               // scratch: squared distances of the last filter
-  std::vector<std::uint32_t> hits;     // block indices found by the last filter
+  std::vector<float> x, y, z;        // candidate positions
+  std::vector<std::uint32_t> index;  // their sorted positions in the grid
+  std::vector<float> d2;             // scratch: squared distances of the last filter
+  std::vector<std::uint32_t> hits;   // block indices found by the last filter
   std::size_t size = 0;
 
   // block indices of the candidates within r of q go to hits[0, returned count),
@@ -139,11 +141,37 @@ class UniformGrid {
   double origin_[3] = {0, 0, 0};
   double inv_[3] = {1, 1, 1};  // 1 / cell edge per axis
   int dims_[3] = {1, 1, 1};
-  std::vector<std::uint32_t> cell_;   // cell of each point (n)
-  std::vector<std::uint32_t> start_;  // first sorted position of each cell (cells + 1)
-  std::vector<std::uint32_t> order_;  // sorted position -> point index (n)
-  std::vector<std::uint32_t> cursor_; // scratch for the counting sort (cells)
-  std::vector<float> sx_, sy_, sz_;   // positions in sorted order (n)
+  std::vector<std::uint32_t> cell_;    // cell of each point (n)
+  std::vector<std::uint32_t> start_;   // first sorted position of each cell (cells + 1)
+  std::vector<std::uint32_t> order_;   // sorted position -> point index (n)
+  std::vector<std::uint32_t> cursor_;  // scratch for the counting sort (cells)
+  std::vector<float> sx_, sy_, sz_;    // positions in sorted order (n)
 };
+
+// The cell-batched neighbour loop: for every sorted point k of `grid`, in
+// parallel over cells, calls visit(k, block, hits) where block.hits[0, hits)
+// index the candidates (block.index[h] = sorted position, block.d2[h] = squared
+// distance) within r of point k, the point itself included. `blocks` is
+// per-thread scratch, kept between calls so steps do not allocate.
+template <typename F>
+void forEachPointNeighbors(const UniformGrid& grid, float r, std::vector<CellBlock>& blocks, F&& visit) {
+  blocks.resize(static_cast<std::size_t>(threadCount()));
+  const float* sx = grid.sortedX().data();
+  const float* sy = grid.sortedY().data();
+  const float* sz = grid.sortedZ().data();
+  const std::size_t chunk = std::clamp<std::size_t>(grid.cellCount() / (16 * blocks.size()), 1, 64);
+  const auto cellWork = [&](std::size_t c) {
+    const std::uint32_t a0 = grid.cellBegin(c), a1 = grid.cellEnd(c);
+    if (a0 == a1) return;
+    CellBlock& block = blocks[static_cast<std::size_t>(threadIndex())];
+    grid.gatherCell(c, r, block);
+    for (std::uint32_t k = a0; k < a1; ++k) visit(k, block, block.filter(sx[k], sy[k], sz[k], r));
+  };
+  if (grid.size() < kSerialBelow) {  // few points: not worth waking the team
+    for (std::size_t c = 0; c < grid.cellCount(); ++c) cellWork(c);
+  } else {
+    parallelForDynamic(grid.cellCount(), chunk, cellWork);
+  }
+}
 
 }  // namespace swarmsim

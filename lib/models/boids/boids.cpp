@@ -66,62 +66,54 @@ class Boids final : public Model {
     const float* sz = grid_.sortedZ().data();
     const float r1sq = r1_ * r1_, r2sq = r2_ * r2_;
     const float smin = static_cast<float>(p_.speed), smax = static_cast<float>(p_.maxSpeed);
-    blocks_.resize(static_cast<std::size_t>(threadCount()));
-    const std::size_t chunk = std::clamp<std::size_t>(grid_.cellCount() / (16 * blocks_.size()), 1, 64);
-    parallelForDynamic(grid_.cellCount(), chunk, [&](std::size_t c) {
-      const std::uint32_t a0 = grid_.cellBegin(c), a1 = grid_.cellEnd(c);
-      if (a0 == a1) return;
-      CellBlock& block = blocks_[static_cast<std::size_t>(threadIndex())];
-      grid_.gatherCell(c, r3_, block);
-      for (std::uint32_t k = a0; k < a1; ++k) {
-        const std::uint32_t i = order[k];
-        const Vec3 x(sx[k], sy[k], sz[k]), v = s.velocity(i);
-        const Vec3 vhat(sux_[k], suy_[k], suz_[k]);
-        Vec3 rep = Vec3::Zero(), ali = Vec3::Zero(), att = Vec3::Zero();
-        const std::size_t hits = block.filter(x.x(), x.y(), x.z(), r3_);
-        for (std::size_t h = 0; h < hits; ++h) {
-          const std::uint32_t b = block.hits[h];
-          const std::uint32_t j = block.index[b];
-          const float d2 = block.d2[b];
-          if (j == k || d2 <= 0.0f) continue;  // itself, or coincident (no direction)
-          const float inv = 1.0f / std::sqrt(d2);
-          const Vec3 dir((block.x[b] - x.x()) * inv, (block.y[b] - x.y()) * inv, (block.z[b] - x.z()) * inv);
-          if (d2 <= r1sq) {
-            rep -= dir;  // away from the neighbour
-          } else if (d2 <= r2sq) {
-            ali += Vec3(sux_[j], suy_[j], suz_[j]);
-          } else if (vhat.dot(dir) >= cosHalfFov_) {
-            att += dir;  // toward the neighbour, if in view
-          }
+    forEachPointNeighbors(grid_, r3_, blocks_, [&](std::uint32_t k, const CellBlock& block, std::size_t hits) {
+      const std::uint32_t i = order[k];
+      const Vec3 x(sx[k], sy[k], sz[k]), v = s.velocity(i);
+      const Vec3 vhat(sux_[k], suy_[k], suz_[k]);
+      Vec3 rep = Vec3::Zero(), ali = Vec3::Zero(), att = Vec3::Zero();
+      for (std::size_t h = 0; h < hits; ++h) {
+        const std::uint32_t b = block.hits[h];
+        const std::uint32_t j = block.index[b];
+        const float d2 = block.d2[b];
+        if (j == k || d2 <= 0.0f) continue;  // itself, or coincident (no direction)
+        const float inv = 1.0f / std::sqrt(d2);
+        const Vec3 dir((block.x[b] - x.x()) * inv, (block.y[b] - x.y()) * inv, (block.z[b] - x.z()) * inv);
+        if (d2 <= r1sq) {
+          rep -= dir;  // away from the neighbour
+        } else if (d2 <= r2sq) {
+          ali += Vec3(sux_[j], suy_[j], suz_[j]);
+        } else if (vhat.dot(dir) >= cosHalfFov_) {
+          att += dir;  // toward the neighbour, if in view
         }
-        Vec3 u = vhat * smin + rep * static_cast<float>(p_.repulsion) + ali * static_cast<float>(p_.alignment) +
-                 att * static_cast<float>(p_.attraction) + centerPull(center - x, invCr) * static_cast<float>(p_.centering);
-        // soft walls: push back in proportion to the depth inside the margin
-        Vec3 wall = Vec3::Zero();
-        for (int a = 0; a < 3; ++a) {
-          const float lo = dmin[a] + margin - x[a];
-          const float hi = x[a] - (dmax[a] - margin);
-          if (lo > 0.0f) wall[a] += lo / margin;
-          if (hi > 0.0f) wall[a] -= hi / margin;
-        }
-        u += wall * static_cast<float>(p_.wallForce);
-        if (p_.jitter > 0.0) {
-          AgentRng rng(world.seed, info.step, s.id[i], RngPurpose::kJitter, info.swarmIndex);
-          u += rng.normal3() * noise;
-        }
-        Vec3 nv = v + (u - v) * blend;
-        // speed limits
-        const float sp = nv.norm();
-        if (sp > smax) {
-          nv *= smax / sp;
-        } else if (sp < smin) {
-          const Vec3 dirv = sp > 1e-12f ? Vec3(nv / sp) : (vhat.squaredNorm() > 0.0f ? vhat : Vec3(1.0f, 0.0f, 0.0f));
-          nv = dirv * smin;
-        }
-        nvx_[k] = nv.x();
-        nvy_[k] = nv.y();
-        nvz_[k] = nv.z();
       }
+      Vec3 u = vhat * smin + rep * static_cast<float>(p_.repulsion) + ali * static_cast<float>(p_.alignment) +
+               att * static_cast<float>(p_.attraction) +
+               centerPull(center - x, invCr) * static_cast<float>(p_.centering);
+      // soft walls: push back in proportion to the depth inside the margin
+      Vec3 wall = Vec3::Zero();
+      for (int a = 0; a < 3; ++a) {
+        const float lo = dmin[a] + margin - x[a];
+        const float hi = x[a] - (dmax[a] - margin);
+        if (lo > 0.0f) wall[a] += lo / margin;
+        if (hi > 0.0f) wall[a] -= hi / margin;
+      }
+      u += wall * static_cast<float>(p_.wallForce);
+      if (p_.jitter > 0.0) {
+        AgentRng rng(world.seed, info.step, s.id[i], RngPurpose::kJitter, info.swarmIndex);
+        u += rng.normal3() * noise;
+      }
+      Vec3 nv = v + (u - v) * blend;
+      // speed limits
+      const float sp = nv.norm();
+      if (sp > smax) {
+        nv *= smax / sp;
+      } else if (sp < smin) {
+        const Vec3 dirv = sp > 1e-12f ? Vec3(nv / sp) : (vhat.squaredNorm() > 0.0f ? vhat : Vec3(1.0f, 0.0f, 0.0f));
+        nv = dirv * smin;
+      }
+      nvx_[k] = nv.x();
+      nvy_[k] = nv.y();
+      nvz_[k] = nv.z();
     });
     // phase 2: apply, storing the agents in cell order (spatial sorting keeps
     // the next step's memory accesses local)
@@ -145,8 +137,8 @@ class Boids final : public Model {
   UniformGrid grid_;
   // scratch, reused every step (no allocation once sized)
   std::vector<float> sux_, suy_, suz_, nvx_, nvy_, nvz_;  // by sorted position
-  SwarmState next_;  // the state being written in phase 2
-  std::vector<CellBlock> blocks_;  // per-thread neighbour candidates
+  SwarmState next_;                                       // the state being written in phase 2
+  std::vector<CellBlock> blocks_;                         // per-thread neighbour candidates
 };
 
 }  // namespace

@@ -1,0 +1,42 @@
+#pragma once
+// Minimum cost field and global velocity of wang2014, section 5.2 (after Treuille et al.
+// 2006, "Continuum crowds", and Sethian 1996, the fast marching method).
+//
+//   |∇C(x)| = f(x),  C = 0 on the goal cells                                       (eq. 7)
+//   V_g = −∇C / |∇C| · s0                                                            (eq. 8)
+//
+// C is solved on a cell-centred grid with spacing (hx, hy, hz) by first-order upwind
+// differences: for a cell with smallest accepted neighbour values m_a along each axis a,
+//   Σ_a (max(C − m_a, 0) / h_a)^2 = f^2,
+// solved with the axes taken in increasing m_a, adding an axis only while the current
+// solution exceeds its m_a (a 1-axis solution is m_0 + h_0 f). Cells are accepted in
+// increasing C through a binary min-heap with decrease-key, as in Dijkstra's algorithm.
+// The solver is serial and deterministic.
+#include <cstdint>
+#include <vector>
+
+#include "core/vec.hpp"
+#include "fields/grid3.hpp"
+
+namespace swarmsim {
+
+struct FastMarchingInput {
+  GridSpec spec;
+  std::vector<float> cost;         // f per cell (spec.size(), ≥ 0); +inf = impassable (obstacle)
+  std::vector<std::uint8_t> goal;  // per cell (spec.size()): 1 = goal cell, C = 0
+};
+
+// C per cell; cells that cannot be reached from a goal (sealed off, or impassable) are +inf.
+// A goal cell gets C = 0 even if its cost is +inf (a goal may be an obstacle, e.g. a target
+// building, which is then approached but not entered). Throws std::invalid_argument on
+// mismatched sizes, a negative or NaN cost, or a non-positive cell size.
+Grid3<float> fastMarching(const FastMarchingInput& input);
+
+// eq. 8 per cell: −∇C/|∇C| · speed. Along each axis the derivative is the one-sided
+// difference toward the smaller finite neighbour, if it is smaller than the cell (upwind),
+// and 0 otherwise, so the direction always points downhill and never uses an impassable
+// (+inf) neighbour. Zero where C is +inf, where C = 0 (the goal), and where no neighbour is
+// lower. Parallel.
+Grid3<Vec3> descentDirection(const Grid3<float>& C, float speed);
+
+}  // namespace swarmsim

@@ -1,0 +1,60 @@
+#pragma once
+// Triangle meshes for obstacles: loading Wavefront OBJ files and a topological
+// closedness check.
+//
+// loadObj reads the file itself first and validates its 'v' and 'f' lines, so
+// that errors name the line (tinyobjloader silently reads "nan" or "abc" as 0
+// and only warns, without a precise line, about out-of-range face indices);
+// tinyobjloader then does the actual parsing and triangulation. All groups and
+// objects of the file are merged into one mesh; normals, texture coordinates
+// and materials are ignored (mtllib lines are not followed).
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "core/vec.hpp"
+
+namespace swarmsim {
+
+struct TriangleMesh {
+  std::vector<Vec3d> vertices;
+  std::vector<std::array<std::uint32_t, 3>> triangles;  // vertex indices, counter-clockwise seen from outside
+  std::string source;                                    // file the mesh came from (for messages)
+
+  // bounding box of the vertices (empty box when there are none)
+  Eigen::AlignedBox3d bounds() const;
+};
+
+// Placement of a mesh in the world. A point p of the file becomes
+//   translate + Rz(rz) * Ry(ry) * Rx(rx) * (scale .* p),
+// i.e. scale per axis first, then rotate about the X axis, then about Y, then
+// about Z (angles in degrees, right-handed: +90 about Z takes +X to +Y), then
+// translate. The axes are the fixed world axes.
+struct MeshTransform {
+  Vec3d translate = Vec3d::Zero();
+  Vec3d rotateDeg = Vec3d::Zero();
+  Vec3d scale = Vec3d::Ones();
+
+  Eigen::Matrix3d rotation() const;  // Rz * Ry * Rx
+  Vec3d apply(const Vec3d& p) const;
+};
+
+// Load an OBJ file, triangulate its faces (all shapes merged) and place it with
+// t. Throws InputError naming the file (and the line where there is one) when
+// the file cannot be read, has no faces, has a vertex with a coordinate that is
+// missing, not a number or not finite (in the loader's precision), has a face
+// with fewer than three vertices or an index out of range (absolute indices
+// count all 'v' lines of the file, negative ones the 'v' lines before the
+// face), or is rejected by tinyobjloader.
+TriangleMesh loadObj(const std::string& path, const MeshTransform& t = MeshTransform());
+
+// True when every undirected edge (by vertex index) belongs to exactly two
+// triangles that use it in opposite directions (consistent orientation) and no
+// triangle repeats a vertex. Vertices are not welded: a closed surface stored
+// with duplicated vertices is not watertight by this test. False when empty.
+bool isWatertight(const TriangleMesh& mesh);
+
+}  // namespace swarmsim

@@ -1,0 +1,467 @@
+#include "models/field/field.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "core/parallel.hpp"
+#include "core/rng.hpp"
+#include "fields/curl_noise.hpp"
+#include "fields/fast_marching.hpp"
+#include "fields/grid3.hpp"
+#include "geometry/obstacles.hpp"
+#include "geometry/signed_distance.hpp"
+#include "spatial/uniform_grid.hpp"
+
+namespace swarmsim {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+constexpr float kFar = 1e30f;  // "no boundary nearby"
+
+std::string dimsText(const std::array<int, 3>& n) {
+  return std::to_string(n[0]) + "x" + std::to_string(n[1]) + "x" + std::to_string(n[2]);
+}
+
+// three integers in [lo, hi]
+std::array<int, 3> readCells(JsonReader& r, const std::string& key, bool required, int lo, int hi) {
+  const Json* v = r.raw(key);
+  if (!v) {
+    if (required) r.failMissing(key, "an array of 3 integers in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    return {0, 0, 0};
+  }
+  const std::string expected = "an array of 3 integers in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+  if (!v->is_array() || v->size() != 3) r.failExpected(key, expected, *v);
+  std::array<int, 3> out{};
+  for (std::size_t a = 0; a < 3; ++a) {
+    const Json& c = (*v)[a];
+    if (!c.is_number_integer() || c.get<long long>() < lo || c.get<long long>() > hi) r.failExpected(key, expected, *v);
+    out[a] = static_cast<int>(c.get<long long>());
+  }
+  return out;
+}
+
+GoalSpec readGoal(JsonReader g) {
+  GoalSpec goal;
+  const std::string type = g.choice("type", "", {"sphere", "box"});
+  if (type.empty()) g.failMissing("type", "\"sphere\" or \"box\"");
+  if (type == "sphere") {
+    goal.kind = GoalSpec::Kind::kSphere;
+    goal.center = g.requireVec3("center");
+    goal.radius = g.requireNumber("radius", Range::positive());
+  } else {
+    goal.kind = GoalSpec::Kind::kBox;
+    const Vec3d lo = g.requireVec3("min"), hi = g.requireVec3("max");
+    for (int a = 0; a < 3; ++a) {
+      if (!(hi[a] > lo[a])) g.fail("max", std::string("expected max > min on every axis (axis ") + "xyz"[a] + ")");
+    }
+    goal.center = 0.5 * (lo + hi);
+    goal.halfSize = 0.5 * (hi - lo);
+  }
+  std::vector<JsonReader> keys = g.objectArray("keyframes", false, 0);
+  for (std::size_t i = 0; i < keys.size(); ++i) {
+    const double t = keys[i].requireNumber("time", Range::nonNegative());
+    if (!goal.keyTimes.empty() && !(t > goal.keyTimes.back())) {
+      keys[i].failExpected("time", "a time later than the previous keyframe's", t);
+    }
+    goal.keyTimes.push_back(t);
+    goal.keyCenters.push_back(keys[i].requireVec3("center"));
+    keys[i].finish();
+  }
+  g.finish();
+  return goal;
+}
+
+class FieldConfig final : public ModelConfig {
+ public:
+  explicit FieldConfig(const FieldParams& p) : p_(p) {}
+  std::unique_ptr<Model> build(const World& world) const override { return makeField(p_, world); }
+
+ private:
+  FieldParams p_;
+};
+
+class FieldModel final : public Model {
+ public:
+  FieldModel(const FieldParams& p, const World& world) : p_(p), domain_(world.domain) {
+    costSpec_ = GridSpec::covering(world.domain.min, world.domain.max, p.costCells);
+    noiseSpec_ = GridSpec::covering(world.domain.min, world.domain.max, p.noiseCells);
+    const Obstacles& obs = *world.obstacles;
+
+    // distances: obstacles at the cost grid and at the noise grid (eq. 5)
+    auto t0 = Clock::now();
+    sdfCost_ = obs.empty() ? Grid3<float>(costSpec_, kFar) : signedDistance(obs, costSpec_);
+    Grid3<float> sdfNoise = obs.empty() ? Grid3<float>(noiseSpec_, kFar) : signedDistance(obs, noiseSpec_);
+    tDistance_ = since(t0);
+
+    // cost: per-cell |∇C| = A + B g (eq. 7 as we read it), obstacles impassable, then fast marching
+    t0 = Clock::now();
+    const double diag = costSpec_.cell.norm();  // a: the cell diagonal (3-D)
+    costF_.resize(costSpec_.size());
+    parallelFor(costF_.size(), [&](std::size_t c) {
+      const float phi = sdfCost_.data[c];
+      costF_[c] = phi < 0.0f ? std::numeric_limits<float>::infinity()
+                             : static_cast<float>(p_.pathWeight + p_.repulsionWeight * bell(phi / (2.0 * diag)));
+    });
+    solveCost(0.0);
+    tCost_ = since(t0);
+    tFmm_ = lastFmmSeconds_;
+
+    // noise: potential blended toward the boundaries (obstacles and domain walls), its curl
+    t0 = Clock::now();
+    if (p_.noise != NoiseKind::kWhite) {
+      NoiseParams np;
+      np.scale = p_.scale;
+      np.gain = p_.gain;
+      np.seeds = p_.seeds;
+      np.unit = costSpec_.cell.minCoeff();
+      np.d0 = p_.rampDistance;
+      if (p_.noise == NoiseKind::kCurl) {
+        // boundary distance: obstacles and the domain's walls
+        Grid3<float> boundary = sdfNoise;
+        for (int k = 0; k < noiseSpec_.n[2]; ++k) {
+          for (int j = 0; j < noiseSpec_.n[1]; ++j) {
+            for (int i = 0; i < noiseSpec_.n[0]; ++i) {
+              const Vec3d c = noiseSpec_.center(i, j, k);
+              const double wall = std::min((c - domain_.min).minCoeff(), (domain_.max - c).minCoeff());
+              float& b = boundary.at(i, j, k);
+              b = std::min(b, static_cast<float>(wall));
+            }
+          }
+        }
+        noise_ = curl(noisePotential(noiseSpec_, np, &boundary));
+      } else {
+        noise_ = perlinVelocity(noiseSpec_, np);
+      }
+    }
+    tNoise_ = since(t0);
+
+    // obstacle clearance uses the finer of the two distance grids
+    clearanceSdf_ = noiseSpec_.cell.minCoeff() < costSpec_.cell.minCoeff() ? std::move(sdfNoise) : sdfCost_;
+    hasObstacles_ = !obs.empty();
+    radius_ = static_cast<float>(p_.agentRadius);
+  }
+
+  std::vector<std::string> statNames() const override { return {"mde_fraction", "cost_solve_seconds"}; }
+
+  void takeFrameStats(std::vector<double>& values) override {
+    values = {frameAgentSteps_ > 0 ? static_cast<double>(frameMoved_) / static_cast<double>(frameAgentSteps_) : 0.0,
+              frameSolveSeconds_};
+    frameMoved_ = frameAgentSteps_ = 0;
+    frameSolveSeconds_ = 0.0;
+  }
+
+  Json benchInfo() const override {
+    const char* noise = p_.noise == NoiseKind::kCurl ? "curl" : p_.noise == NoiseKind::kPerlin ? "perlin" : "white";
+    return {{"noise", noise},
+            {"scale", p_.scale},
+            {"gain", p_.gain},
+            {"s0", p_.speed},
+            {"cost_grid", dimsText(costSpec_.n)},
+            {"noise_grid", dimsText(noiseSpec_.n)},
+            {"t_distance", tDistance_},
+            {"t_cost", tCost_},
+            {"t_fast_marching", tFmm_},
+            {"t_noise", tNoise_},
+            {"mde_percent", totalAgentSteps_ > 0 ? 100.0 * static_cast<double>(totalMoved_) /
+                                                       static_cast<double>(totalAgentSteps_)
+                                                 : 0.0},
+            {"cost_solves", solves_},
+            {"cost_solve_seconds", totalSolveSeconds_}};
+  }
+
+  void step(const World& world, SwarmState& s, const StepInfo& info) override {
+    const std::size_t n = s.size();
+    const double t = info.time;
+    // a moving goal: re-solve the cost field once it has moved half a cell
+    if (dynamicGoals_) {
+      const double threshold = 0.5 * costSpec_.cell.minCoeff();
+      bool moved = false;
+      for (std::size_t g = 0; g < p_.goals.size(); ++g) {
+        moved = moved || (p_.goals[g].centerAt(t) - solvedCenters_[g]).norm() > threshold;
+      }
+      if (moved) {
+        const auto t0 = Clock::now();
+        solveCost(t);
+        const double sec = since(t0);
+        frameSolveSeconds_ += sec;
+        totalSolveSeconds_ += sec;
+      }
+    }
+
+    // phase 1: velocities from the fields, tentative positions
+    for (auto* a : {&nx_, &ny_, &nz_, &vx_, &vy_, &vz_}) a->resize(n);
+    const float dt = static_cast<float>(world.dt);
+    const Vec3 light = p_.light.cast<float>();
+    const float gain = static_cast<float>(p_.gain);
+    parallelFor(n, [&](std::size_t i) {
+      const Vec3 x = s.position(i);
+      Vec3 v = hasGoals_ ? global_.sample(x) : Vec3::Zero();
+      if (p_.noise == NoiseKind::kWhite) {
+        AgentRng rng(world.seed, info.step, s.id[i], RngPurpose::kNoise, info.swarmIndex);
+        v += rng.normal3() * gain;
+      } else {
+        v += noise_.sample(x);
+      }
+      if (p_.phototaxis) {
+        AgentRng rng(world.seed, info.step, s.id[i], RngPurpose::kPhototaxis, info.swarmIndex);
+        if (rng.uniform() < static_cast<float>(p_.phototaxisProbability)) {
+          v += normalizedOrZero(light - x) * static_cast<float>(p_.phototaxisSpeed);
+        }
+      }
+      vx_[i] = v.x();
+      vy_[i] = v.y();
+      vz_[i] = v.z();
+      nx_[i] = x.x() + v.x() * dt;
+      ny_[i] = x.y() + v.y() * dt;
+      nz_[i] = x.z() + v.z() * dt;
+    });
+
+    // phase 2: minimum distance enforcement on the tentative positions; the
+    // state is rewritten in grid order (spatial sorting)
+    next_.resizeStorage(n);
+    std::size_t moved = 0;
+    if (p_.minDistance > 0.0 && n > 1) {
+      const float md = static_cast<float>(p_.minDistance);
+      grid_.build(nx_.data(), ny_.data(), nz_.data(), n, md);
+      const auto& order = grid_.order();
+      const float* sx = grid_.sortedX().data();
+      const float* sy = grid_.sortedY().data();
+      const float* sz = grid_.sortedZ().data();
+      movedFlag_.assign(n, 0);
+      forEachPointNeighbors(grid_, md, blocks_, [&](std::uint32_t k, const CellBlock& block, std::size_t hits) {
+        const std::uint32_t i = order[k];
+        Vec3 push = Vec3::Zero();
+        for (std::size_t h = 0; h < hits; ++h) {
+          const std::uint32_t b = block.hits[h];
+          const std::uint32_t j = block.index[b];
+          const float d2 = block.d2[b];
+          if (j == k || d2 >= md * md) continue;
+          const float d = std::sqrt(d2);
+          Vec3 dir;
+          if (d > 0.0f) {
+            dir = Vec3(sx[k] - block.x[b], sy[k] - block.y[b], sz[k] - block.z[b]) / d;
+          } else {  // coincident: separate along x, by id
+            dir = Vec3(s.id[i] < s.id[order[j]] ? -1.0f : 1.0f, 0.0f, 0.0f);
+          }
+          push += dir * (0.5f * (md - d));  // each of the pair moves half the deficit
+        }
+        movedFlag_[k] = push.squaredNorm() > 0.0f ? 1 : 0;
+        next_.id[k] = s.id[i];
+        next_.px[k] = sx[k] + push.x();
+        next_.py[k] = sy[k] + push.y();
+        next_.pz[k] = sz[k] + push.z();
+        next_.vx[k] = vx_[i];
+        next_.vy[k] = vy_[i];
+        next_.vz[k] = vz_[i];
+      });
+      for (std::size_t k = 0; k < n; ++k) moved += movedFlag_[k];
+    } else {
+      parallelFor(n, [&](std::size_t i) {
+        next_.id[i] = s.id[i];
+        next_.px[i] = nx_[i];
+        next_.py[i] = ny_[i];
+        next_.pz[i] = nz_[i];
+        next_.vx[i] = vx_[i];
+        next_.vy[i] = vy_[i];
+        next_.vz[i] = vz_[i];
+      });
+    }
+
+    // phase 3: keep clear of obstacles and inside the domain
+    const Vec3 lo = domain_.min.cast<float>(), hi = domain_.max.cast<float>();
+    parallelFor(n, [&](std::size_t k) {
+      Vec3 x(next_.px[k], next_.py[k], next_.pz[k]);
+      if (hasObstacles_) x = clearObstacles(x);
+      x = x.cwiseMax(lo).cwiseMin(hi);
+      next_.px[k] = x.x();
+      next_.py[k] = x.y();
+      next_.pz[k] = x.z();
+    });
+    s.swapStorage(next_);
+
+    frameMoved_ += moved;
+    totalMoved_ += moved;
+    frameAgentSteps_ += n;
+    totalAgentSteps_ += n;
+  }
+
+ private:
+  // push x out along the distance gradient until it is `radius_` clear (a few
+  // projections settle corners)
+  Vec3 clearObstacles(Vec3 x) const {
+    for (int it = 0; it < 4; ++it) {
+      const float phi = clearanceSdf_.sample(x);
+      if (phi >= radius_) break;
+      Vec3 g;
+      for (int a = 0; a < 3; ++a) {
+        const float h = 0.5f * static_cast<float>(clearanceSdf_.spec.cell[a]);
+        Vec3 e = Vec3::Zero();
+        e[a] = h;
+        g[a] = (clearanceSdf_.sample(x + e) - clearanceSdf_.sample(x - e)) / (2.0f * h);
+      }
+      const Vec3 nrm = normalizedOrZero(g);
+      if (nrm.squaredNorm() == 0.0f) break;
+      x += nrm * (radius_ - phi + 1e-4f * static_cast<float>(clearanceSdf_.spec.cell.minCoeff()));
+    }
+    return x;
+  }
+
+  void solveCost(double t) {
+    solvedCenters_.clear();
+    for (const auto& g : p_.goals) solvedCenters_.push_back(g.centerAt(t));
+    hasGoals_ = !p_.goals.empty();
+    dynamicGoals_ = false;
+    for (const auto& g : p_.goals) dynamicGoals_ = dynamicGoals_ || !g.keyTimes.empty();
+    if (!hasGoals_) return;
+    FastMarchingInput in;
+    in.spec = costSpec_;
+    in.cost = costF_;
+    in.goal.assign(costSpec_.size(), 0);
+    for (std::size_t g = 0; g < p_.goals.size(); ++g) {
+      bool any = false;
+      const Vec3d c = solvedCenters_[g];
+      for (int k = 0; k < costSpec_.n[2]; ++k) {
+        for (int j = 0; j < costSpec_.n[1]; ++j) {
+          for (int i = 0; i < costSpec_.n[0]; ++i) {
+            if (p_.goals[g].contains(costSpec_.center(i, j, k), c)) {
+              in.goal[costSpec_.index(i, j, k)] = 1;
+              any = true;
+            }
+          }
+        }
+      }
+      if (!any) {  // a goal smaller than a cell: the cell holding its centre
+        const auto cc = costSpec_.cellOf(c);
+        in.goal[costSpec_.index(cc[0], cc[1], cc[2])] = 1;
+      }
+    }
+    const auto t0 = Clock::now();
+    Grid3<float> cost = fastMarching(in);
+    lastFmmSeconds_ = since(t0);
+    global_ = descentDirection(cost, static_cast<float>(p_.speed));
+    ++solves_;
+  }
+
+  FieldParams p_;
+  Aabb domain_;
+  GridSpec costSpec_, noiseSpec_;
+  Grid3<float> sdfCost_, clearanceSdf_;
+  std::vector<float> costF_;  // |∇C| per cost cell (inf inside obstacles)
+  Grid3<Vec3f> global_;       // V_g (eq. 8)
+  Grid3<Vec3f> noise_;        // ∇×N (eq. 1), or plain Perlin for the baseline
+  bool hasGoals_ = false, dynamicGoals_ = false, hasObstacles_ = false;
+  float radius_ = 0.0f;
+  std::vector<Vec3d> solvedCenters_;
+  double tDistance_ = 0.0, tCost_ = 0.0, tNoise_ = 0.0, tFmm_ = 0.0, lastFmmSeconds_ = 0.0;
+  // statistics
+  std::size_t frameMoved_ = 0, frameAgentSteps_ = 0, totalMoved_ = 0, totalAgentSteps_ = 0;
+  double frameSolveSeconds_ = 0.0, totalSolveSeconds_ = 0.0;
+  long long solves_ = 0;
+  // scratch, reused every step
+  UniformGrid grid_;
+  std::vector<CellBlock> blocks_;
+  std::vector<float> nx_, ny_, nz_, vx_, vy_, vz_;
+  std::vector<std::uint8_t> movedFlag_;
+  SwarmState next_;
+};
+
+}  // namespace
+
+double bell(double r) {
+  if (r < 0.0) return 1.0;
+  if (r > 1.0) return 0.0;
+  const double r2 = r * r, r4 = r2 * r2, r6 = r4 * r2;
+  return 1.0 - 4.0 / 9.0 * r6 + 17.0 / 9.0 * r4 - 22.0 / 9.0 * r2;
+}
+
+Vec3d GoalSpec::centerAt(double t) const {
+  if (keyTimes.empty()) return center;
+  if (t <= keyTimes.front()) return keyCenters.front();
+  if (t >= keyTimes.back()) return keyCenters.back();
+  const auto it = std::upper_bound(keyTimes.begin(), keyTimes.end(), t);
+  const std::size_t b = static_cast<std::size_t>(it - keyTimes.begin()), a = b - 1;
+  const double f = (t - keyTimes[a]) / (keyTimes[b] - keyTimes[a]);
+  return keyCenters[a] + f * (keyCenters[b] - keyCenters[a]);
+}
+
+bool GoalSpec::contains(const Vec3d& p, const Vec3d& c) const {
+  if (kind == Kind::kSphere) return (p - c).squaredNorm() <= radius * radius;
+  return ((p - c).cwiseAbs() - halfSize).maxCoeff() <= 0.0;
+}
+
+FieldParams readFieldParams(JsonReader& r, const ModelContext& context) {
+  FieldParams p;
+  const Aabb& dom = context.world.domain;
+  p.speed = r.number("speed", p.speed, Range::positive());
+  p.costCells = readCells(r, "cost_cells", true, 2, 1024);
+  if (static_cast<double>(p.costCells[0]) * p.costCells[1] * p.costCells[2] > 64e6) {
+    r.fail("cost_cells", "more than 64 million cells");
+  }
+  const Vec3d costCell = dom.extent().cwiseQuotient(Vec3d(p.costCells[0], p.costCells[1], p.costCells[2]));
+  const double unit = costCell.minCoeff();
+  {
+    JsonReader nz = r.object("noise", false);
+    const std::string type = nz.choice("type", "curl", {"curl", "perlin", "white"});
+    p.noise = type == "curl" ? NoiseKind::kCurl : type == "perlin" ? NoiseKind::kPerlin : NoiseKind::kWhite;
+    p.scale = nz.number("scale", p.scale, Range::positive());
+    p.gain = nz.number("gain", p.gain, Range::nonNegative());
+    const Json* seeds = nz.raw("seeds");
+    if (seeds) {
+      if (!seeds->is_array() || seeds->size() != 3) nz.failExpected("seeds", "an array of 3 integers >= 0", *seeds);
+      for (std::size_t a = 0; a < 3; ++a) {
+        if (!(*seeds)[a].is_number_unsigned()) nz.failExpected("seeds", "an array of 3 integers >= 0", *seeds);
+        p.seeds[a] = (*seeds)[a].get<std::uint64_t>();
+      }
+    }
+    p.noiseCells = readCells(nz, "cells", false, 2, 1024);
+    if (p.noiseCells[0] == 0) {
+      // default: three samples per noise unit (l / scale), within [4, 256] per axis and 8M cells
+      const double h = unit / (3.0 * p.scale);
+      double factor = 1.0;
+      for (;;) {
+        double total = 1.0;
+        for (int a = 0; a < 3; ++a) {
+          p.noiseCells[a] = std::clamp(static_cast<int>(std::ceil(dom.extent()[a] / (h * factor))), 4, 256);
+          total *= p.noiseCells[a];
+        }
+        if (total <= 8e6) break;
+        factor *= 1.05;
+      }
+    }
+    nz.resolve("cells", Json::array({p.noiseCells[0], p.noiseCells[1], p.noiseCells[2]}));
+    if (static_cast<double>(p.noiseCells[0]) * p.noiseCells[1] * p.noiseCells[2] > 64e6) {
+      nz.fail("cells", "more than 64 million cells");
+    }
+    nz.finish();
+  }
+  p.rampDistance = r.number("ramp_distance", unit, Range::positive());
+  p.pathWeight = r.number("path_weight", p.pathWeight, Range::positive());
+  p.repulsionWeight = r.number("repulsion_weight", p.repulsionWeight, Range::nonNegative());
+  for (JsonReader& g : r.objectArray("goals", false, 0)) p.goals.push_back(readGoal(g));
+  p.minDistance = r.number("min_distance", p.minDistance, Range::nonNegative());
+  p.agentRadius = r.number("agent_radius", 0.5 * p.minDistance, Range::nonNegative());
+  if (r.has("phototaxis")) {
+    JsonReader ph = r.object("phototaxis", false);
+    p.phototaxis = true;
+    p.light = ph.requireVec3("light");
+    p.phototaxisProbability = ph.number("probability", 0.05, Range::closed(0.0, 1.0));
+    p.phototaxisSpeed = ph.number("speed", 1.0, Range::nonNegative());
+    ph.finish();
+  }
+  return p;
+}
+
+std::shared_ptr<const ModelConfig> parseField(JsonReader& params, const ModelContext& context) {
+  return std::make_shared<FieldConfig>(readFieldParams(params, context));
+}
+
+std::unique_ptr<Model> makeField(const FieldParams& params, const World& world) {
+  return std::make_unique<FieldModel>(params, world);
+}
+
+}  // namespace swarmsim
