@@ -58,30 +58,146 @@ double segmentDist2(const Vec3d& ap, const Vec3d& ab) {
   return (ap - s * ab).squaredNorm();
 }
 
-// squared distance from p to triangle T (Voronoi regions of vertices, edges, face)
-double triDist2(const Vec3d& p, const Tri& T) {
+// which part of a triangle is closest to a point
+enum Feature : int { kFace = 0, kVertexA, kVertexB, kVertexC, kEdgeAB, kEdgeAC, kEdgeBC };
+
+// squared distance from p to triangle T and the closest feature (Voronoi
+// regions of the vertices, edges and face; degenerate triangles report kFace)
+long gEvals = 0, gRelax = 0, gSame = 0, gImprove = 0;
+double triDist2(const Vec3d& p, const Tri& T, int& feature) {
+  ++gEvals;
   const Vec3d ap = p - T.a;
+  feature = kFace;
   if (T.degenerate) {
     return std::min({segmentDist2(ap, T.ab), segmentDist2(ap, T.ac), segmentDist2(ap - T.ab, T.ac - T.ab)});
   }
   const double d1 = T.ab.dot(ap), d2 = T.ac.dot(ap);
-  if (d1 <= 0.0 && d2 <= 0.0) return ap.squaredNorm();  // vertex a
+  if (d1 <= 0.0 && d2 <= 0.0) {
+    feature = kVertexA;
+    return ap.squaredNorm();
+  }
   const Vec3d bp = ap - T.ab;
   const double d3 = T.ab.dot(bp), d4 = T.ac.dot(bp);
-  if (d3 >= 0.0 && d4 <= d3) return bp.squaredNorm();  // vertex b
+  if (d3 >= 0.0 && d4 <= d3) {
+    feature = kVertexB;
+    return bp.squaredNorm();
+  }
   const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) return (ap - (d1 / (d1 - d3)) * T.ab).squaredNorm();  // edge ab
+  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
+    feature = kEdgeAB;
+    return (ap - (d1 / (d1 - d3)) * T.ab).squaredNorm();
+  }
   const Vec3d cp = ap - T.ac;
   const double d5 = T.ab.dot(cp), d6 = T.ac.dot(cp);
-  if (d6 >= 0.0 && d5 <= d6) return cp.squaredNorm();  // vertex c
+  if (d6 >= 0.0 && d5 <= d6) {
+    feature = kVertexC;
+    return cp.squaredNorm();
+  }
   const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) return (ap - (d2 / (d2 - d6)) * T.ac).squaredNorm();  // edge ac
+  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
+    feature = kEdgeAC;
+    return (ap - (d2 / (d2 - d6)) * T.ac).squaredNorm();
+  }
   const double va = d3 * d6 - d5 * d4;
-  if (va <= 0.0 && d4 >= d3 && d5 >= d6) {  // edge bc
+  if (va <= 0.0 && d4 >= d3 && d5 >= d6) {
+    feature = kEdgeBC;
     return (bp - ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (T.ac - T.ab)).squaredNorm();
   }
-  const double h = ap.dot(T.n);  // face
+  const double h = ap.dot(T.n);
   return h * h;
+}
+
+// triangles with their vertex-to-triangle adjacency
+struct Surface {
+  const TriangleMesh* mesh = nullptr;
+  std::vector<Tri> tris;
+  std::vector<std::uint32_t> ringStart, ring;  // triangles around vertex v: ring[ringStart[v], ringStart[v+1])
+
+  explicit Surface(const TriangleMesh& m) : mesh(&m), tris(makeTris(m)) {
+    ringStart.assign(m.vertices.size() + 1, 0);
+    for (const auto& t : m.triangles) {
+      for (const std::uint32_t v : t) ++ringStart[v + 1];
+    }
+    for (std::size_t v = 0; v < m.vertices.size(); ++v) ringStart[v + 1] += ringStart[v];
+    ring.resize(ringStart.back());
+    std::vector<std::uint32_t> fill(ringStart.begin(), ringStart.end() - 1);
+    for (std::size_t t = 0; t < m.triangles.size(); ++t) {
+      for (const std::uint32_t v : m.triangles[t]) ring[fill[v]++] = static_cast<std::uint32_t>(t);
+    }
+  }
+};
+
+bool hasVertex(const std::array<std::uint32_t, 3>& t, std::uint32_t v) { return t[0] == v || t[1] == v || t[2] == v; }
+
+// Local descent: while the closest point of triangle t is on an edge or vertex,
+// move to a triangle across that edge (for a vertex: across the edge from it
+// that points most towards p) if that is strictly closer. Keeps propagated
+// candidates at a local minimum of the distance over the surface.
+void descend(const Surface& S, const Vec3d& p, std::int32_t& t, double& d2, int& feature) {
+  const auto& tris = S.mesh->triangles;
+  const auto& verts = S.mesh->vertices;
+  for (int step = 0; step < 64 && feature != kFace; ++step) {
+    const auto& tv = tris[static_cast<std::size_t>(t)];
+    std::uint32_t v = 0, u = 0;
+    if (feature <= kVertexC) {
+      // the edge from v with the steepest descent of the distance to p
+      v = tv[feature - kVertexA];
+      const Vec3d pv = p - verts[v];
+      double best = 0.0;
+      bool found = false;
+      for (std::uint32_t r = S.ringStart[v]; r < S.ringStart[v + 1]; ++r) {
+        for (const std::uint32_t w : tris[S.ring[r]]) {
+          if (w == v) continue;
+          const Vec3d e = verts[w] - verts[v];
+          const double dot = pv.dot(e), len2 = e.squaredNorm();
+          if (dot > 0.0 && len2 > 0.0 && dot * dot > best * len2) {  // dot / |e| largest
+            best = dot * dot / len2;
+            u = w;
+            found = true;
+          }
+        }
+      }
+      if (!found) return;
+    } else {
+      static constexpr int kEnds[3][2] = {{0, 1}, {0, 2}, {1, 2}};
+      v = tv[kEnds[feature - kEdgeAB][0]];
+      u = tv[kEnds[feature - kEdgeAB][1]];
+    }
+    // the closest other triangle on edge (v, u)
+    std::int32_t next = -1;
+    int nextFeature = kFace;
+    double nextD2 = d2;
+    for (std::uint32_t r = S.ringStart[v]; r < S.ringStart[v + 1]; ++r) {
+      const std::uint32_t cand = S.ring[r];
+      if (static_cast<std::int32_t>(cand) == t || !hasVertex(tris[cand], u)) continue;
+      int f = kFace;
+      const double dd = triDist2(p, S.tris[cand], f);
+      if (dd < nextD2) {
+        nextD2 = dd;
+        next = static_cast<std::int32_t>(cand);
+        nextFeature = f;
+      }
+    }
+    if (next < 0) return;
+    t = next;
+    d2 = nextD2;
+    feature = nextFeature;
+  }
+}
+
+// The lowest-numbered triangle with the same closest feature as t when that is
+// a vertex or edge at a local minimum (all its triangles are then equally
+// close), so that neighbouring cells share ids and skip re-evaluation.
+std::int32_t canonical(const Surface& S, std::int32_t t, int feature) {
+  if (feature == kFace) return t;
+  const auto& tv = S.mesh->triangles[static_cast<std::size_t>(t)];
+  if (feature <= kVertexC) return static_cast<std::int32_t>(S.ring[S.ringStart[tv[feature - kVertexA]]]);
+  static constexpr int kEnds[3][2] = {{0, 1}, {0, 2}, {1, 2}};
+  const std::uint32_t v = tv[kEnds[feature - kEdgeAB][0]], u = tv[kEnds[feature - kEdgeAB][1]];
+  for (std::uint32_t r = S.ringStart[v]; r < S.ringStart[v + 1]; ++r) {
+    if (hasVertex(S.mesh->triangles[S.ring[r]], u)) return static_cast<std::int32_t>(S.ring[r]);
+  }
+  return t;
 }
 
 // ---------------------------------------------------------------------------
@@ -121,7 +237,8 @@ struct MeshField {
   std::vector<std::int8_t> votes;
 };
 
-void seedBand(const std::vector<Tri>& tris, const GridSpec& s, MeshField& f) {
+void seedBand(const Surface& S, const GridSpec& s, MeshField& f) {
+  const std::vector<Tri>& tris = S.tris;
   const double band = 1.5 * s.cell.maxCoeff();
   const Vec3d lo = s.center(0, 0, 0), hi = s.center(s.n[0] - 1, s.n[1] - 1, s.n[2] - 1);
   // per triangle: cells of its bounding box grown by the band (clamped to the
@@ -165,7 +282,8 @@ void seedBand(const std::vector<Tri>& tris, const GridSpec& s, MeshField& f) {
         }
         for (int i = ri.lo; i <= ri.hi; ++i) {
           const std::size_t cell = s.index(i, j, k);
-          const double d2 = triDist2(s.center(i, j, k), T);
+          int feature = kFace;
+          const double d2 = triDist2(s.center(i, j, k), T, feature);
           if (d2 < f.d2[cell]) {
             f.d2[cell] = static_cast<float>(d2);
             f.tri[cell] = static_cast<std::int32_t>(t);
@@ -177,20 +295,24 @@ void seedBand(const std::vector<Tri>& tris, const GridSpec& s, MeshField& f) {
 }
 
 // cell c (centre p) tries the triangle of its neighbour nb
-inline void relax(const std::vector<Tri>& tris, MeshField& f, std::size_t c, std::size_t nb, const Vec3d& p) {
-  const std::int32_t t = f.tri[nb];
-  if (t < 0 || t == f.tri[c]) return;
-  const double d2 = triDist2(p, tris[static_cast<std::size_t>(t)]);
-  if (d2 < f.d2[c]) {
-    f.d2[c] = static_cast<float>(d2);
-    f.tri[c] = t;
-  }
+inline void relax(const Surface& S, MeshField& f, std::size_t c, std::size_t nb, const Vec3d& p) {
+  std::int32_t t = f.tri[nb];
+  ++gRelax;
+  if (t < 0 || t == f.tri[c]) { ++gSame; return; }
+  int feature = kFace;
+  double d2 = triDist2(p, S.tris[static_cast<std::size_t>(t)], feature);
+  if (!(d2 < f.d2[c])) return;
+  ++gImprove;
+  descend(S, p, t, d2, feature);
+  f.d2[c] = static_cast<float>(d2);
+  f.tri[c] = canonical(S, t, feature);
 }
 
-void propagate(const std::vector<Tri>& tris, const GridSpec& s, MeshField& f) {
+void propagate(const Surface& tris, const GridSpec& s, MeshField& f) {
   const int nx = s.n[0], ny = s.n[1], nz = s.n[2];
   const std::size_t sy = static_cast<std::size_t>(nx), sz = static_cast<std::size_t>(nx) * ny;
-  for (int round = 0; round < 2; ++round) {
+  static const int kRounds = getenv("SDF_ROUNDS") ? atoi(getenv("SDF_ROUNDS")) : 2;
+  for (int round = 0; round < kRounds; ++round) {
     // x lines, one per body
     parallelFor(static_cast<std::size_t>(ny) * nz, [&](std::size_t line) {
       const int j = static_cast<int>(line % ny), k = static_cast<int>(line / ny);
@@ -339,14 +461,17 @@ void addMesh(const TriangleMesh& mesh, const GridSpec& s, MeshField& f, std::vec
       throw std::invalid_argument("signedDistance: mesh " + mesh.source + " has a vertex index out of range");
     }
   }
-  const std::vector<Tri> tris = makeTris(mesh);
+  const Surface S(mesh);
+  const std::vector<Tri>& tris = S.tris;
   std::fill(f.d2.begin(), f.d2.end(), std::numeric_limits<float>::infinity());
   std::fill(f.tri.begin(), f.tri.end(), -1);
   auto T0 = std::chrono::steady_clock::now();
-  seedBand(tris, s, f);
+  seedBand(S, s, f);
   auto T1 = std::chrono::steady_clock::now();
-  propagate(tris, s, f);
+  if (getenv("SDF_TIMING")) fprintf(stderr, "seed evals %ld\n", gEvals); gEvals = 0;
+  propagate(S, s, f);
   auto T2 = std::chrono::steady_clock::now();
+  if (getenv("SDF_TIMING")) fprintf(stderr, "prop evals %ld relax %ld same %ld improve %ld\n", gEvals, gRelax, gSame, gImprove); gEvals = gRelax = gSame = gImprove = 0;
   voteSigns(mesh, s, f);
   auto T3 = std::chrono::steady_clock::now();
   if (getenv("SDF_TIMING")) fprintf(stderr, "seed %.1f prop %.1f sign %.1f\n", std::chrono::duration<double,std::milli>(T1-T0).count(), std::chrono::duration<double,std::milli>(T2-T1).count(), std::chrono::duration<double,std::milli>(T3-T2).count());

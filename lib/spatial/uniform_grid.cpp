@@ -7,7 +7,8 @@
 
 namespace swarmsim {
 
-void UniformGrid::build(const float* x, const float* y, const float* z, std::size_t n, float minCell) {
+void UniformGrid::build(const float* x, const float* y, const float* z, std::size_t n, float minCell,
+                        double cellsPerPoint) {
   if (!(minCell > 0.0f)) throw std::invalid_argument("UniformGrid::build: cell size must be > 0");
   // bounding box (min/max do not depend on evaluation order)
   float lo[3] = {std::numeric_limits<float>::max(), std::numeric_limits<float>::max(),
@@ -35,7 +36,7 @@ void UniformGrid::build(const float* x, const float* y, const float* z, std::siz
   // cell edge: slightly above minCell so a query of radius minCell spans +-1 cell
   // despite rounding; coarsened until there are at most ~2 cells per point
   double edge = static_cast<double>(minCell) * (1.0 + 1e-5);
-  const double maxCells = 2.0 * static_cast<double>(n) + 64.0;
+  const double maxCells = cellsPerPoint * static_cast<double>(n) + 64.0;
   for (;;) {
     double cells = 1.0;
     for (int a = 0; a < 3; ++a) {
@@ -85,11 +86,15 @@ void UniformGrid::build(const float* x, const float* y, const float* z, std::siz
 void UniformGrid::gatherCell(std::size_t c, float r, CellBlock& block) const {
   const int cell[3] = {static_cast<int>(c % dims_[0]), static_cast<int>((c / dims_[0]) % dims_[1]),
                        static_cast<int>(c / (static_cast<std::size_t>(dims_[0]) * dims_[1]))};
+  gatherCells(cell, cell, r, block);
+}
+
+void UniformGrid::gatherCells(const int first[3], const int last[3], float r, CellBlock& block) const {
   int lo[3], hi[3];
   for (int a = 0; a < 3; ++a) {
     const int span = spanFor(r, a);
-    lo[a] = std::max(0, cell[a] - span);
-    hi[a] = std::min(dims_[a] - 1, cell[a] + span);
+    lo[a] = std::max(0, first[a] - span);
+    hi[a] = std::min(dims_[a] - 1, last[a] + span);
   }
   std::size_t total = 0;
   for (int cz = lo[2]; cz <= hi[2]; ++cz) {

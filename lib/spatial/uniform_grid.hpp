@@ -53,8 +53,9 @@ struct CellBlock {
 class UniformGrid {
  public:
   // bin n points; minCell > 0 is the smallest allowed cell edge (usually the
-  // largest query radius, so queries visit 3x3x3 cells)
-  void build(const float* x, const float* y, const float* z, std::size_t n, float minCell);
+  // largest query radius, so queries visit 3x3x3 cells); cells are coarsened
+  // until there are at most cellsPerPoint * n + 64 of them
+  void build(const float* x, const float* y, const float* z, std::size_t n, float minCell, double cellsPerPoint = 2.0);
 
   std::size_t size() const { return order_.size(); }
   // sorted position k -> original point index
@@ -72,6 +73,8 @@ class UniformGrid {
   // gather into `block` every point of the cells that can hold a point within
   // r of some point of cell c (a superset; use CellBlock::filter per query)
   void gatherCell(std::size_t c, float r, CellBlock& block) const;
+  // the same for the box of cells first..last (inclusive cell coordinates)
+  void gatherCells(const int first[3], const int last[3], float r, CellBlock& block) const;
   float cellSize(int axis) const { return static_cast<float>(1.0 / inv_[axis]); }
 
   // call f(k, dx, dy, dz, d2) for every sorted point k with d2 = |p_k - q|^2 <= r^2,
@@ -159,18 +162,46 @@ void forEachPointNeighbors(const UniformGrid& grid, float r, std::vector<CellBlo
   const float* sx = grid.sortedX().data();
   const float* sy = grid.sortedY().data();
   const float* sz = grid.sortedZ().data();
-  const std::size_t chunk = std::clamp<std::size_t>(grid.cellCount() / (16 * blocks.size()), 1, 64);
-  const auto cellWork = [&](std::size_t c) {
-    const std::uint32_t a0 = grid.cellBegin(c), a1 = grid.cellEnd(c);
-    if (a0 == a1) return;
+  // sparse grids gather for 2x2x2 cells at once: gathering walks cell rows,
+  // which costs more than filtering the extra candidates
+  const int b = 2 * grid.size() < 3 * grid.cellCount() ? 2 : 1;
+  const int nb[3] = {(grid.dim(0) + b - 1) / b, (grid.dim(1) + b - 1) / b, (grid.dim(2) + b - 1) / b};
+  const std::size_t tiles = static_cast<std::size_t>(nb[0]) * nb[1] * nb[2];
+  const auto tileWork = [&](std::size_t t) {
+    const int tc[3] = {static_cast<int>(t % nb[0]), static_cast<int>((t / nb[0]) % nb[1]),
+                       static_cast<int>(t / (static_cast<std::size_t>(nb[0]) * nb[1]))};
+    int first[3], last[3];
+    for (int a = 0; a < 3; ++a) {
+      first[a] = tc[a] * b;
+      last[a] = std::min(grid.dim(a) - 1, first[a] + b - 1);
+    }
+    // the tile's points: one contiguous range per (y, z) row of its cells
+    const auto rowRange = [&](int cy, int cz) {
+      const std::size_t row = (static_cast<std::size_t>(cz) * grid.dim(1) + cy) * grid.dim(0);
+      return std::make_pair(grid.cellBegin(row + first[0]), grid.cellEnd(row + last[0]));
+    };
+    bool any = false;
+    for (int cz = first[2]; cz <= last[2] && !any; ++cz) {
+      for (int cy = first[1]; cy <= last[1] && !any; ++cy) {
+        const auto [a0, a1] = rowRange(cy, cz);
+        any = a1 > a0;
+      }
+    }
+    if (!any) return;
     CellBlock& block = blocks[static_cast<std::size_t>(threadIndex())];
-    grid.gatherCell(c, r, block);
-    for (std::uint32_t k = a0; k < a1; ++k) visit(k, block, block.filter(sx[k], sy[k], sz[k], r));
+    grid.gatherCells(first, last, r, block);
+    for (int cz = first[2]; cz <= last[2]; ++cz) {
+      for (int cy = first[1]; cy <= last[1]; ++cy) {
+        const auto [a0, a1] = rowRange(cy, cz);
+        for (std::uint32_t k = a0; k < a1; ++k) visit(k, block, block.filter(sx[k], sy[k], sz[k], r));
+      }
+    }
   };
   if (grid.size() < kSerialBelow) {  // few points: not worth waking the team
-    for (std::size_t c = 0; c < grid.cellCount(); ++c) cellWork(c);
+    for (std::size_t t = 0; t < tiles; ++t) tileWork(t);
   } else {
-    parallelForDynamic(grid.cellCount(), chunk, cellWork);
+    const std::size_t chunk = std::clamp<std::size_t>(tiles / (16 * blocks.size()), 1, 64);
+    parallelForDynamic(tiles, chunk, tileWork);
   }
 }
 

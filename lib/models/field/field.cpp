@@ -140,6 +140,8 @@ class FieldModel final : public Model {
     }
     tNoise_ = since(t0);
 
+    combine();
+
     // obstacle clearance uses the finer of the two distance grids
     clearanceSdf_ = noiseSpec_.cell.minCoeff() < costSpec_.cell.minCoeff() ? std::move(sdfNoise) : sdfCost_;
     hasObstacles_ = !obs.empty();
@@ -187,6 +189,7 @@ class FieldModel final : public Model {
       if (moved) {
         const auto t0 = Clock::now();
         solveCost(t);
+        combine();
         const double sec = since(t0);
         frameSolveSeconds_ += sec;
         totalSolveSeconds_ += sec;
@@ -200,12 +203,12 @@ class FieldModel final : public Model {
     const float gain = static_cast<float>(p_.gain);
     parallelFor(n, [&](std::size_t i) {
       const Vec3 x = s.position(i);
-      Vec3 v = hasGoals_ ? global_.sample(x) : Vec3::Zero();
+      Vec3 v;
       if (p_.noise == NoiseKind::kWhite) {
         AgentRng rng(world.seed, info.step, s.id[i], RngPurpose::kNoise, info.swarmIndex);
-        v += rng.normal3() * gain;
+        v = (hasGoals_ ? global_.sample(x) : Vec3::Zero()) + rng.normal3() * gain;
       } else {
-        v += noise_.sample(x);
+        v = combined_.sample(x);  // V = ∇×N + V_g (eq. 9), one lookup
       }
       if (p_.phototaxis) {
         AgentRng rng(world.seed, info.step, s.id[i], RngPurpose::kPhototaxis, info.swarmIndex);
@@ -227,7 +230,7 @@ class FieldModel final : public Model {
     std::size_t moved = 0;
     if (p_.minDistance > 0.0 && n > 1) {
       const float md = static_cast<float>(p_.minDistance);
-      grid_.build(nx_.data(), ny_.data(), nz_.data(), n, md);
+      grid_.build(nx_.data(), ny_.data(), nz_.data(), n, md, 8.0);
       const auto& order = grid_.order();
       const float* sx = grid_.sortedX().data();
       const float* sy = grid_.sortedY().data();
@@ -291,6 +294,19 @@ class FieldModel final : public Model {
   }
 
  private:
+  // V = noise + V_g on the noise grid (V_g sampled there), so a step does one lookup
+  void combine() {
+    if (p_.noise == NoiseKind::kWhite) return;
+    combined_ = noise_;
+    if (!hasGoals_) return;
+    const GridSpec& g = combined_.spec;
+    parallelFor(g.size(), [&](std::size_t c) {
+      const int i = static_cast<int>(c % g.n[0]), j = static_cast<int>((c / g.n[0]) % g.n[1]);
+      const int k = static_cast<int>(c / (static_cast<std::size_t>(g.n[0]) * g.n[1]));
+      combined_.data[c] += global_.sample(g.center(i, j, k).cast<float>());
+    });
+  }
+
   // push x out along the distance gradient until it is `radius_` clear (a few
   // projections settle corners)
   Vec3 clearObstacles(Vec3 x) const {
@@ -354,6 +370,7 @@ class FieldModel final : public Model {
   std::vector<float> costF_;  // |∇C| per cost cell (inf inside obstacles)
   Grid3<Vec3f> global_;       // V_g (eq. 8)
   Grid3<Vec3f> noise_;        // ∇×N (eq. 1), or plain Perlin for the baseline
+  Grid3<Vec3f> combined_;     // noise_ + V_g on the noise grid (eq. 9)
   bool hasGoals_ = false, dynamicGoals_ = false, hasObstacles_ = false;
   float radius_ = 0.0f;
   std::vector<Vec3d> solvedCenters_;
