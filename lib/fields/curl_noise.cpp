@@ -62,8 +62,8 @@ NoisePotential::NoisePotential(const NoiseParams& params)
     : params_(params), perlin_(makePerlin(params)), frequency_(0.0), potentialFactor_(0.0) {
   if (!positiveFinite(params.scale) || !positiveFinite(params.unit) || !positiveFinite(params.d0))
     throw std::invalid_argument("noise parameters: scale, unit and d0 must be positive (got scale " +
-                                std::to_string(params.scale) + ", unit " + std::to_string(params.unit) +
-                                ", d0 " + std::to_string(params.d0) + ")");
+                                std::to_string(params.scale) + ", unit " + std::to_string(params.unit) + ", d0 " +
+                                std::to_string(params.d0) + ")");
   frequency_ = params.scale / params.unit;
   potentialFactor_ = params.gain * params.unit / params.scale;
 }

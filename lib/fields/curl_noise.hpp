@@ -29,11 +29,11 @@ namespace swarmsim {
 double ramp(double r);
 
 struct NoiseParams {
-  double scale = 0.1;                           // noise lattice cells per grid unit (> 0)
-  double gain = 1.0;                            // velocity magnitude, m/s
+  double scale = 0.1;                              // noise lattice cells per grid unit (> 0)
+  double gain = 1.0;                               // velocity magnitude, m/s
   std::array<std::uint64_t, 3> seeds = {1, 2, 3};  // one per component P1, P2, P3
-  double unit = 1.0;                            // metres per grid unit (> 0)
-  double d0 = 1.0;                              // ramp distance, metres (> 0)
+  double unit = 1.0;                               // metres per grid unit (> 0)
+  double d0 = 1.0;                                 // ramp distance, metres (> 0)
 };
 
 // P, N and the plain noise at arbitrary points (the grid functions below use it)

@@ -1,6 +1,8 @@
 #include "fields/fast_marching.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -14,74 +16,85 @@ namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr std::int32_t kFar = -1;    // not reached yet
-constexpr std::int32_t kKnown = -2;  // accepted (or impassable, or padding)
+constexpr std::int32_t kKnown = -2;  // accepted, impassable or padding: never updated
 
-// Binary min-heap of (key, cell) with decrease-key: slot[cell] is the cell's position in
-// the heap while it is in it. Ties are broken by the cell index, so the order of
-// acceptance (and the result) is fully determined by the input.
+// solver state of one cell of the padded grid (interleaved: a cell's neighbours' values and
+// its heap slot share cache lines)
+struct CellState {
+  float val;          // accepted C, +inf until accepted
+  float cost;         // f
+  std::int32_t slot;  // heap position while in the heap, else kFar / kKnown
+};
+
+// Binary min-heap of cells keyed by tentative C, with decrease-key through CellState::slot.
+// An item packs the key's IEEE bits (keys are ≥ +0, whose bit patterns order like their
+// values) above the cell index, so one integer comparison orders by C and then by cell:
+// the acceptance order is fully determined by the input.
 class CellHeap {
  public:
-  explicit CellHeap(std::vector<std::int32_t>& slot) : slot_(slot) {}
+  explicit CellHeap(std::vector<CellState>& cells) : cells_(cells) {}
   void reserve(std::size_t n) { items_.reserve(n); }
   bool empty() const { return items_.empty(); }
-  float keyAt(std::int32_t pos) const { return items_[static_cast<std::size_t>(pos)].key; }
 
-  void push(std::int32_t cell, float key) {
-    items_.push_back({key, cell});
-    siftUp(items_.size() - 1);
+  static std::uint64_t pack(std::uint32_t cell, float key) {
+    std::uint32_t bits;
+    std::memcpy(&bits, &key, sizeof bits);
+    return static_cast<std::uint64_t>(bits) << 32 | cell;
   }
-  void decrease(std::int32_t pos, float key) {
-    items_[static_cast<std::size_t>(pos)].key = key;
-    siftUp(static_cast<std::size_t>(pos));
-  }
-  // removes the smallest item; its slot is left for the caller to set
-  std::pair<std::int32_t, float> pop() {
-    const Item top = items_.front();
-    const Item last = items_.back();
-    items_.pop_back();
-    if (!items_.empty()) {
-      items_.front() = last;
-      siftDown(0);
-    }
-    return {top.cell, top.key};
-  }
-
- private:
-  struct Item {
+  static std::uint32_t cellOf(std::uint64_t item) { return static_cast<std::uint32_t>(item); }
+  static float keyOf(std::uint64_t item) {
+    const auto bits = static_cast<std::uint32_t>(item >> 32);
     float key;
-    std::int32_t cell;
-  };
-  static bool less(const Item& a, const Item& b) { return a.key < b.key || (a.key == b.key && a.cell < b.cell); }
-  void place(std::size_t pos, const Item& it) {
-    items_[pos] = it;
-    slot_[static_cast<std::size_t>(it.cell)] = static_cast<std::int32_t>(pos);
+    std::memcpy(&key, &bits, sizeof key);
+    return key;
   }
-  void siftUp(std::size_t pos) {
-    const Item it = items_[pos];
-    while (pos > 0) {
-      const std::size_t parent = (pos - 1) / 2;
-      if (!less(it, items_[parent])) break;
-      place(pos, items_[parent]);
-      pos = parent;
-    }
-    place(pos, it);
+  float keyAt(std::int32_t pos) const { return keyOf(items_[static_cast<std::size_t>(pos)]); }
+
+  void push(std::uint32_t cell, float key) {
+    items_.push_back(0);
+    siftUp(items_.size() - 1, pack(cell, key));
   }
-  void siftDown(std::size_t pos) {
-    const Item it = items_[pos];
+  // lowers the key of the item at pos (the caller checked key < its current key)
+  void decrease(std::int32_t pos, std::uint32_t cell, float key) {
+    siftUp(static_cast<std::size_t>(pos), pack(cell, key));
+  }
+  // removes and returns the smallest item; the caller sets its slot. Bottom-up: the hole
+  // at the root follows the smaller child down to a leaf (one comparison per level), then
+  // the last item is sifted up from there.
+  std::uint64_t pop() {
+    const std::uint64_t top = items_.front();
+    const std::uint64_t last = items_.back();
+    items_.pop_back();
     const std::size_t n = items_.size();
-    for (;;) {
-      std::size_t child = 2 * pos + 1;
-      if (child >= n) break;
-      if (child + 1 < n && less(items_[child + 1], items_[child])) ++child;
-      if (!less(items_[child], it)) break;
+    if (n == 0) return top;
+    std::size_t pos = 0;
+    for (std::size_t child = 1; child < n; child = 2 * pos + 1) {
+      if (child + 1 < n) child += items_[child + 1] < items_[child] ? 1 : 0;
       place(pos, items_[child]);
       pos = child;
     }
-    place(pos, it);
+    siftUp(pos, last);
+    return top;
   }
 
-  std::vector<Item> items_;
-  std::vector<std::int32_t>& slot_;
+ private:
+  void place(std::size_t pos, std::uint64_t item) {
+    items_[pos] = item;
+    cells_[cellOf(item)].slot = static_cast<std::int32_t>(pos);
+  }
+  // puts item into the hole at pos or above it
+  void siftUp(std::size_t pos, std::uint64_t item) {
+    while (pos > 0) {
+      const std::size_t parent = (pos - 1) / 2;
+      if (!(item < items_[parent])) break;
+      place(pos, items_[parent]);
+      pos = parent;
+    }
+    place(pos, item);
+  }
+
+  std::vector<CellState>& cells_;
+  std::vector<std::uint64_t> items_;
 };
 
 void validate(const FastMarchingInput& in) {
@@ -109,68 +122,78 @@ Grid3<float> fastMarching(const FastMarchingInput& input) {
   const GridSpec& spec = input.spec;
   const int nx = spec.n[0], ny = spec.n[1], nz = spec.n[2];
 
-  // padded copies: one layer of impassable, accepted cells around the grid removes all
-  // bounds checks; val holds accepted values only (+inf for the rest)
-  const std::size_t px = static_cast<std::size_t>(nx) + 2, py = static_cast<std::size_t>(ny) + 2;
-  const std::size_t padded = px * py * (static_cast<std::size_t>(nz) + 2);
-  std::vector<float> val(padded, kInf), cost(padded, kInf);
-  std::vector<std::int32_t> slot(padded, kKnown);
+  // padded grid: a layer of impassable, accepted cells around the grid removes all bounds
+  // checks; impassable cells are accepted at +inf from the start
+  const std::size_t px = static_cast<std::size_t>(nx) + 2, py = static_cast<std::size_t>(ny) + 2,
+                    pz = static_cast<std::size_t>(nz) + 2;
+  std::vector<CellState> cells(px * py * pz, CellState{kInf, kInf, kKnown});
   auto paddedIndex = [&](int i, int j, int k) {
-    return (static_cast<std::size_t>(k + 1) * py + static_cast<std::size_t>(j + 1)) * px + static_cast<std::size_t>(i + 1);
+    return (static_cast<std::size_t>(k + 1) * py + static_cast<std::size_t>(j + 1)) * px +
+           static_cast<std::size_t>(i + 1);
   };
   for (int k = 0; k < nz; ++k)
     for (int j = 0; j < ny; ++j)
       for (int i = 0; i < nx; ++i) {
-        const std::size_t p = paddedIndex(i, j, k);
-        cost[p] = input.cost[spec.index(i, j, k)];
-        if (std::isfinite(cost[p])) slot[p] = kFar;
+        CellState& c = cells[paddedIndex(i, j, k)];
+        c.cost = input.cost[spec.index(i, j, k)];
+        if (std::isfinite(c.cost)) c.slot = kFar;
       }
 
-  // neighbour offsets and squared inverse spacings per axis
-  const std::int32_t stride[3] = {1, static_cast<std::int32_t>(px), static_cast<std::int32_t>(px * py)};
-  const double h[3] = {spec.cell[0], spec.cell[1], spec.cell[2]};
+  // neighbour offsets, spacings h, weights w = 1/h^2, and 1/Σw for each pair of axes
+  // (indexed by the axis left out) and for all three
+  const std::size_t stride[3] = {1, px, px * py};
+  double h[3], w[3];
+  for (int a = 0; a < 3; ++a) {
+    h[a] = spec.cell[a];
+    w[a] = 1.0 / (h[a] * h[a]);
+  }
+  const double invPair[3] = {1.0 / (w[1] + w[2]), 1.0 / (w[0] + w[2]), 1.0 / (w[0] + w[1])};
+  const double invAll = 1.0 / (w[0] + w[1] + w[2]);
 
   // the upwind update of cell p from its accepted neighbours
   auto solve = [&](std::size_t p) -> float {
-    // smallest accepted value per axis, with that axis' spacing, sorted by value
-    double m[3], hh[3];
-    for (int a = 0; a < 3; ++a) {
-      m[a] = static_cast<double>(std::min(val[p - stride[a]], val[p + stride[a]]));
-      hh[a] = h[a];
-    }
+    // smallest accepted value per axis, sorted with its axis in increasing order
+    float m[3];
+    int ax[3] = {0, 1, 2};
+    for (int a = 0; a < 3; ++a) m[a] = std::min(cells[p - stride[a]].val, cells[p + stride[a]].val);
     auto order = [&](int a, int b) {
       if (m[b] < m[a]) {
         std::swap(m[a], m[b]);
-        std::swap(hh[a], hh[b]);
+        std::swap(ax[a], ax[b]);
       }
     };
     order(0, 1);
     order(1, 2);
     order(0, 1);
-    // one axis, then add axes while the solution exceeds the next neighbour value;
-    // in τ = C − m0 the equation is Σ_a (τ − δ_a)^2 / h_a^2 = f^2 with δ_a = m_a − m0
-    const double f = static_cast<double>(cost[p]);
-    double tau = hh[0] * f;
-    double sw = 0.0, swd = 0.0, swdd = 0.0;
-    for (int a = 0; a < 3; ++a) {
-      const double d = m[a] - m[0];
-      if (a > 0 && !(tau > d)) break;  // also stops at +inf neighbours
-      const double w = 1.0 / (hh[a] * hh[a]);
-      sw += w;
-      swd += w * d;
-      swdd += w * d * d;
-      if (a == 0) continue;
-      const double disc = swd * swd - sw * (swdd - f * f);
-      if (disc < 0.0) break;  // keep the solution with fewer axes
-      const double t = (swd + std::sqrt(disc)) / sw;
-      if (!(t > d)) break;
-      tau = t;
-    }
-    return static_cast<float>(m[0] + tau);
+    // one axis: C = m0 + h f. Take in the next axis while C exceeds its value; in
+    // τ = C − m0, δ_a = m_a − m0 the equation Σ_a w_a (τ − δ_a)^2 = f^2 has the root
+    // τ = (Σ w δ + sqrt((Σ w δ)^2 − Σw (Σ w δ^2 − f^2))) / Σw. A negative discriminant or a
+    // root not above δ (rounding only) keeps the solution with fewer axes.
+    const double f = static_cast<double>(cells[p].cost);
+    const double base = static_cast<double>(m[0]);
+    double tau = h[ax[0]] * f;
+    const double d1 = static_cast<double>(m[1]) - base;
+    if (!(tau > d1)) return static_cast<float>(base + tau);  // also when m1 = +inf
+    double swd = w[ax[1]] * d1, swdd = w[ax[1]] * d1 * d1;
+    double disc = swd * swd - (w[ax[0]] + w[ax[1]]) * (swdd - f * f);
+    if (disc < 0.0) return static_cast<float>(base + tau);
+    const double t2 = (swd + std::sqrt(disc)) * invPair[ax[2]];
+    if (!(t2 > d1)) return static_cast<float>(base + tau);
+    tau = t2;
+    const double d2 = static_cast<double>(m[2]) - base;
+    if (!(tau > d2)) return static_cast<float>(base + tau);
+    swd += w[ax[2]] * d2;
+    swdd += w[ax[2]] * d2 * d2;
+    disc = swd * swd - (w[0] + w[1] + w[2]) * (swdd - f * f);
+    if (disc < 0.0) return static_cast<float>(base + tau);
+    const double t3 = (swd + std::sqrt(disc)) * invAll;
+    if (t3 > d2) tau = t3;
+    return static_cast<float>(base + tau);
   };
 
-  CellHeap heap(slot);
-  heap.reserve(4 * (px * py + py * (static_cast<std::size_t>(nz) + 2) + px * (static_cast<std::size_t>(nz) + 2)));
+  // the heap holds the front: room for a few layers of cells, grown if needed
+  CellHeap heap(cells);
+  heap.reserve(4 * (px * py + py * pz + px * pz));
 
   // goal cells enter the heap at 0 (even impassable ones: a goal wins)
   for (int k = 0; k < nz; ++k)
@@ -178,25 +201,26 @@ Grid3<float> fastMarching(const FastMarchingInput& input) {
       for (int i = 0; i < nx; ++i) {
         if (!input.goal[spec.index(i, j, k)]) continue;
         const std::size_t p = paddedIndex(i, j, k);
-        cost[p] = 0.0f;
-        heap.push(static_cast<std::int32_t>(p), 0.0f);
+        cells[p].cost = 0.0f;
+        if (cells[p].slot == kKnown) cells[p].slot = kFar;
+        if (cells[p].slot == kFar) heap.push(static_cast<std::uint32_t>(p), 0.0f);
       }
 
   // accept the smallest tentative value, then update its unaccepted neighbours
   while (!heap.empty()) {
-    const auto [cell, key] = heap.pop();
-    const auto c = static_cast<std::size_t>(cell);
-    slot[c] = kKnown;
-    val[c] = key;
+    const std::uint64_t top = heap.pop();
+    const std::size_t c = CellHeap::cellOf(top);
+    cells[c].slot = kKnown;
+    cells[c].val = CellHeap::keyOf(top);
     for (int a = 0; a < 3; ++a) {
-      for (const std::size_t q : {c - static_cast<std::size_t>(stride[a]), c + static_cast<std::size_t>(stride[a])}) {
-        const std::int32_t s = slot[q];
+      for (const std::size_t q : {c - stride[a], c + stride[a]}) {
+        const std::int32_t s = cells[q].slot;
         if (s == kKnown) continue;
         const float t = solve(q);
         if (s == kFar) {
-          heap.push(static_cast<std::int32_t>(q), t);
+          heap.push(static_cast<std::uint32_t>(q), t);
         } else if (t < heap.keyAt(s)) {
-          heap.decrease(s, t);
+          heap.decrease(s, static_cast<std::uint32_t>(q), t);
         }
       }
     }
@@ -206,7 +230,7 @@ Grid3<float> fastMarching(const FastMarchingInput& input) {
   Grid3<float> out(spec, kInf);
   for (int k = 0; k < nz; ++k)
     for (int j = 0; j < ny; ++j)
-      for (int i = 0; i < nx; ++i) out.at(i, j, k) = val[paddedIndex(i, j, k)];
+      for (int i = 0; i < nx; ++i) out.at(i, j, k) = cells[paddedIndex(i, j, k)].val;
   return out;
 }
 

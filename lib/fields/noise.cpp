@@ -19,8 +19,8 @@ std::uint64_t splitmix64(std::uint64_t& state) {
 // the 12 cube-edge directions, padded to 16 with four of them (a regular tetrahedron,
 // as in Perlin 2002) so a hash picks one with `& 15`
 constexpr double kGrad[16][3] = {
-    {1, 1, 0}, {-1, 1, 0}, {1, -1, 0}, {-1, -1, 0}, {1, 0, 1},  {-1, 0, 1},  {1, 0, -1}, {-1, 0, -1},
-    {0, 1, 1}, {0, -1, 1}, {0, 1, -1}, {0, -1, -1}, {1, 1, 0},  {-1, 1, 0},  {0, -1, 1}, {0, -1, -1},
+    {1, 1, 0}, {-1, 1, 0}, {1, -1, 0}, {-1, -1, 0}, {1, 0, 1}, {-1, 0, 1}, {1, 0, -1}, {-1, 0, -1},
+    {0, 1, 1}, {0, -1, 1}, {0, 1, -1}, {0, -1, -1}, {1, 1, 0}, {-1, 1, 0}, {0, -1, 1}, {0, -1, -1},
 };
 
 // 1 / (largest reachable magnitude, 1.036354, rounded up): see noise.hpp
