@@ -201,7 +201,8 @@ std::vector<std::size_t> validateObj(const std::string& path, const std::vector<
     if (!isStatement(l.text, 'f')) continue;
     anyFace = true;
     const auto tok = tokens(l.text.substr(1));
-    if (tok.size() < 3) fail(path, l.number, "face has " + std::to_string(tok.size()) + " vertices (expected at least 3)");
+    if (tok.size() < 3)
+      fail(path, l.number, "face has " + std::to_string(tok.size()) + " vertices (expected at least 3)");
     for (std::string_view t : tok) {
       long long idx = 0;
       if (!parseFaceVertex(t, idx)) {
@@ -223,6 +224,23 @@ std::vector<std::size_t> validateObj(const std::string& path, const std::vector<
   return vertexLines;
 }
 
+// The text without a UTF-8 byte-order mark and without comments ('#' to the
+// end of the line, also after data, which tinyobjloader would misread); line
+// breaks are kept, so line numbers stay the same.
+std::string withoutComments(const std::string& raw) {
+  std::string out;
+  out.reserve(raw.size());
+  std::size_t i = raw.compare(0, 3, "\xEF\xBB\xBF") == 0 ? 3 : 0;
+  bool comment = false;
+  for (; i < raw.size(); ++i) {
+    const char c = raw[i];
+    if (c == '\n' || c == '\r') comment = false;
+    if (c == '#') comment = true;
+    if (!comment) out += c;
+  }
+  return out;
+}
+
 std::string trimmed(std::string s) {
   while (!s.empty() && (s.back() == '\n' || s.back() == '\r' || s.back() == ' ' || s.back() == '.')) s.pop_back();
   return s;
@@ -239,7 +257,7 @@ TriangleMesh loadObj(const std::string& path, const MeshTransform& t) {
   std::ostringstream buffer;
   buffer << in.rdbuf();
   if (in.bad()) throw InputError(path + ": cannot open OBJ file (read error)");
-  const std::string text = buffer.str();
+  const std::string text = withoutComments(buffer.str());
 
   // our own checks, with line numbers
   const std::vector<ObjLine> lines = splitLines(text);

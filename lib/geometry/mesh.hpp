@@ -5,9 +5,11 @@
 // loadObj reads the file itself first and validates its 'v' and 'f' lines, so
 // that errors name the line (tinyobjloader silently reads "nan" or "abc" as 0
 // and only warns, without a precise line, about out-of-range face indices);
-// tinyobjloader then does the actual parsing and triangulation. All groups and
-// objects of the file are merged into one mesh; normals, texture coordinates
-// and materials are ignored (mtllib lines are not followed).
+// tinyobjloader then does the actual parsing and triangulation. Comments ('#'
+// to the end of a line, also after data) and a UTF-8 byte-order mark are
+// removed first. All groups and objects of the file are merged into one mesh;
+// normals, texture coordinates and materials are ignored (mtllib lines are not
+// followed).
 #include <array>
 #include <cstdint>
 #include <string>
@@ -22,7 +24,7 @@ namespace swarmsim {
 struct TriangleMesh {
   std::vector<Vec3d> vertices;
   std::vector<std::array<std::uint32_t, 3>> triangles;  // vertex indices, counter-clockwise seen from outside
-  std::string source;                                    // file the mesh came from (for messages)
+  std::string source;                                   // file the mesh came from (for messages)
 
   // bounding box of the vertices (empty box when there are none)
   Eigen::AlignedBox3d bounds() const;

@@ -1,6 +1,3 @@
-#include <chrono>
-#include <cstdio>
-#include <cstdlib>
 #include "geometry/signed_distance.hpp"
 
 #include <algorithm>
@@ -10,12 +7,24 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
 #include "core/parallel.hpp"
 
 namespace swarmsim {
+
+namespace {
+
+// One body per grid plane, slab or block of lines: few heavy indices, so
+// dynamic scheduling (parallelFor runs loops of few indices serially).
+template <typename F>
+void forEachPlane(std::size_t n, F&& body) {
+  parallelForDynamic(n, 1, std::forward<F>(body));
+}
+
+}  // namespace
 
 double sphereSignedDistance(const SphereObstacle& s, const Vec3d& p) { return (p - s.center).norm() - s.radius; }
 
@@ -63,9 +72,7 @@ enum Feature : int { kFace = 0, kVertexA, kVertexB, kVertexC, kEdgeAB, kEdgeAC, 
 
 // squared distance from p to triangle T and the closest feature (Voronoi
 // regions of the vertices, edges and face; degenerate triangles report kFace)
-long gEvals = 0, gRelax = 0, gSame = 0, gImprove = 0;
 double triDist2(const Vec3d& p, const Tri& T, int& feature) {
-  ++gEvals;
   const Vec3d ap = p - T.a;
   feature = kFace;
   if (T.degenerate) {
@@ -107,61 +114,96 @@ double triDist2(const Vec3d& p, const Tri& T, int& feature) {
   return h * h;
 }
 
-// triangles with their vertex-to-triangle adjacency
+// Triangles with their adjacency, on vertices welded by exact position (so
+// meshes stored with duplicated vertices are connected too).
 struct Surface {
-  const TriangleMesh* mesh = nullptr;
   std::vector<Tri> tris;
-  std::vector<std::uint32_t> ringStart, ring;  // triangles around vertex v: ring[ringStart[v], ringStart[v+1])
+  std::vector<std::array<std::uint32_t, 3>> corners;  // welded vertex ids per triangle
+  std::vector<std::uint32_t> ringStart, ring;         // triangles around welded vertex v
+  std::vector<std::uint32_t> nbrStart, nbr;           // welded vertices joined to v by an edge
+  std::vector<Vec3d> nbrDir;                          // unit direction of that edge
 
-  explicit Surface(const TriangleMesh& m) : mesh(&m), tris(makeTris(m)) {
-    ringStart.assign(m.vertices.size() + 1, 0);
-    for (const auto& t : m.triangles) {
-      for (const std::uint32_t v : t) ++ringStart[v + 1];
+  explicit Surface(const TriangleMesh& m) : tris(makeTris(m)), corners(m.triangles) {
+    const std::size_t nv = m.vertices.size();
+    // weld: the lowest index among vertices at the same position
+    std::vector<std::uint32_t> order(nv), weld(nv);
+    for (std::size_t v = 0; v < nv; ++v) order[v] = static_cast<std::uint32_t>(v);
+    auto less = [&](std::uint32_t x, std::uint32_t y) {
+      const Vec3d &a = m.vertices[x], &b = m.vertices[y];
+      return std::tie(a.x(), a.y(), a.z(), x) < std::tie(b.x(), b.y(), b.z(), y);
+    };
+    std::sort(order.begin(), order.end(), less);
+    for (std::size_t k = 0; k < nv; ++k) {
+      const bool same = k > 0 && m.vertices[order[k]] == m.vertices[order[k - 1]];
+      weld[order[k]] = same ? weld[order[k - 1]] : order[k];
     }
-    for (std::size_t v = 0; v < m.vertices.size(); ++v) ringStart[v + 1] += ringStart[v];
+    for (auto& c : corners) {
+      for (auto& v : c) v = weld[v];
+    }
+    // triangles around each vertex (CSR, ascending triangle index)
+    ringStart.assign(nv + 1, 0);
+    for (const auto& c : corners) {
+      for (const std::uint32_t v : c) ++ringStart[v + 1];
+    }
+    for (std::size_t v = 0; v < nv; ++v) ringStart[v + 1] += ringStart[v];
     ring.resize(ringStart.back());
     std::vector<std::uint32_t> fill(ringStart.begin(), ringStart.end() - 1);
-    for (std::size_t t = 0; t < m.triangles.size(); ++t) {
-      for (const std::uint32_t v : m.triangles[t]) ring[fill[v]++] = static_cast<std::uint32_t>(t);
+    for (std::size_t t = 0; t < corners.size(); ++t) {
+      for (const std::uint32_t v : corners[t]) ring[fill[v]++] = static_cast<std::uint32_t>(t);
+    }
+    // edge neighbours of each vertex, with unit directions
+    nbrStart.assign(nv + 1, 0);
+    std::vector<std::uint32_t> scratch;
+    for (std::size_t v = 0; v < nv; ++v) {
+      scratch.clear();
+      for (std::uint32_t r = ringStart[v]; r < ringStart[v + 1]; ++r) {
+        for (const std::uint32_t u : corners[ring[r]]) {
+          if (u != v) scratch.push_back(u);
+        }
+      }
+      std::sort(scratch.begin(), scratch.end());
+      scratch.erase(std::unique(scratch.begin(), scratch.end()), scratch.end());
+      for (const std::uint32_t u : scratch) {
+        const Vec3d e = m.vertices[u] - m.vertices[v];
+        if (e.squaredNorm() == 0.0) continue;
+        nbr.push_back(u);
+        nbrDir.push_back(e.normalized());
+      }
+      nbrStart[v + 1] = static_cast<std::uint32_t>(nbr.size());
     }
   }
 };
 
 bool hasVertex(const std::array<std::uint32_t, 3>& t, std::uint32_t v) { return t[0] == v || t[1] == v || t[2] == v; }
 
+constexpr int kEdgeEnds[3][2] = {{0, 1}, {0, 2}, {1, 2}};  // kEdgeAB, kEdgeAC, kEdgeBC
+
 // Local descent: while the closest point of triangle t is on an edge or vertex,
 // move to a triangle across that edge (for a vertex: across the edge from it
 // that points most towards p) if that is strictly closer. Keeps propagated
 // candidates at a local minimum of the distance over the surface.
 void descend(const Surface& S, const Vec3d& p, std::int32_t& t, double& d2, int& feature) {
-  const auto& tris = S.mesh->triangles;
-  const auto& verts = S.mesh->vertices;
   for (int step = 0; step < 64 && feature != kFace; ++step) {
-    const auto& tv = tris[static_cast<std::size_t>(t)];
+    const auto& tv = S.corners[static_cast<std::size_t>(t)];
     std::uint32_t v = 0, u = 0;
     if (feature <= kVertexC) {
-      // the edge from v with the steepest descent of the distance to p
-      v = tv[feature - kVertexA];
-      const Vec3d pv = p - verts[v];
+      // the edge from v along which the distance to p falls fastest
+      const int corner = feature - kVertexA;
+      v = tv[corner];
+      const Tri& T = S.tris[static_cast<std::size_t>(t)];
+      const Vec3d pv = p - (corner == 0 ? T.a : (corner == 1 ? Vec3d(T.a + T.ab) : Vec3d(T.a + T.ac)));
       double best = 0.0;
-      bool found = false;
-      for (std::uint32_t r = S.ringStart[v]; r < S.ringStart[v + 1]; ++r) {
-        for (const std::uint32_t w : tris[S.ring[r]]) {
-          if (w == v) continue;
-          const Vec3d e = verts[w] - verts[v];
-          const double dot = pv.dot(e), len2 = e.squaredNorm();
-          if (dot > 0.0 && len2 > 0.0 && dot * dot > best * len2) {  // dot / |e| largest
-            best = dot * dot / len2;
-            u = w;
-            found = true;
-          }
+      for (std::uint32_t k = S.nbrStart[v]; k < S.nbrStart[v + 1]; ++k) {
+        const double slope = pv.dot(S.nbrDir[k]);
+        if (slope > best) {
+          best = slope;
+          u = S.nbr[k];
         }
       }
-      if (!found) return;
+      if (best <= 0.0) return;  // v is a local minimum
     } else {
-      static constexpr int kEnds[3][2] = {{0, 1}, {0, 2}, {1, 2}};
-      v = tv[kEnds[feature - kEdgeAB][0]];
-      u = tv[kEnds[feature - kEdgeAB][1]];
+      v = tv[kEdgeEnds[feature - kEdgeAB][0]];
+      u = tv[kEdgeEnds[feature - kEdgeAB][1]];
     }
     // the closest other triangle on edge (v, u)
     std::int32_t next = -1;
@@ -169,7 +211,7 @@ void descend(const Surface& S, const Vec3d& p, std::int32_t& t, double& d2, int&
     double nextD2 = d2;
     for (std::uint32_t r = S.ringStart[v]; r < S.ringStart[v + 1]; ++r) {
       const std::uint32_t cand = S.ring[r];
-      if (static_cast<std::int32_t>(cand) == t || !hasVertex(tris[cand], u)) continue;
+      if (static_cast<std::int32_t>(cand) == t || !hasVertex(S.corners[cand], u)) continue;
       int f = kFace;
       const double dd = triDist2(p, S.tris[cand], f);
       if (dd < nextD2) {
@@ -190,12 +232,11 @@ void descend(const Surface& S, const Vec3d& p, std::int32_t& t, double& d2, int&
 // close), so that neighbouring cells share ids and skip re-evaluation.
 std::int32_t canonical(const Surface& S, std::int32_t t, int feature) {
   if (feature == kFace) return t;
-  const auto& tv = S.mesh->triangles[static_cast<std::size_t>(t)];
+  const auto& tv = S.corners[static_cast<std::size_t>(t)];
   if (feature <= kVertexC) return static_cast<std::int32_t>(S.ring[S.ringStart[tv[feature - kVertexA]]]);
-  static constexpr int kEnds[3][2] = {{0, 1}, {0, 2}, {1, 2}};
-  const std::uint32_t v = tv[kEnds[feature - kEdgeAB][0]], u = tv[kEnds[feature - kEdgeAB][1]];
+  const std::uint32_t v = tv[kEdgeEnds[feature - kEdgeAB][0]], u = tv[kEdgeEnds[feature - kEdgeAB][1]];
   for (std::uint32_t r = S.ringStart[v]; r < S.ringStart[v + 1]; ++r) {
-    if (hasVertex(S.mesh->triangles[S.ring[r]], u)) return static_cast<std::int32_t>(S.ring[r]);
+    if (hasVertex(S.corners[S.ring[r]], u)) return static_cast<std::int32_t>(S.ring[r]);
   }
   return t;
 }
@@ -232,9 +273,9 @@ Range centresNear(const GridSpec& s, int a, double lo, double hi) {
 // Unsigned distance: exact in a band, then closest-triangle propagation
 
 struct MeshField {
-  std::vector<float> d2;          // squared distance to the best triangle found
-  std::vector<std::int32_t> tri;  // that triangle, -1 = none yet
-  std::vector<std::int8_t> votes;
+  std::vector<float> d2;            // squared distance to the best triangle found
+  std::vector<std::int32_t> tri;    // that triangle, -1 = none yet
+  std::vector<std::uint8_t> stamp;  // propagation pass of the last change
 };
 
 void seedBand(const Surface& S, const GridSpec& s, MeshField& f) {
@@ -258,7 +299,7 @@ void seedBand(const Surface& S, const GridSpec& s, MeshField& f) {
     seeds[t].limit = band + gap.norm();
   }
   // one z-plane per body; triangles in index order, so ties keep the lowest index
-  parallelForDynamic(static_cast<std::size_t>(s.n[2]), 1, [&](std::size_t kk) {
+  forEachPlane(static_cast<std::size_t>(s.n[2]), [&](std::size_t kk) {
     const int k = static_cast<int>(kk);
     for (std::size_t t = 0; t < tris.size(); ++t) {
       const Seed& sd = seeds[t];
@@ -292,59 +333,131 @@ void seedBand(const Surface& S, const GridSpec& s, MeshField& f) {
       }
     }
   });
+  // a mesh outside the grid may seed nothing: seed the cell nearest to its
+  // first vertex with its nearest triangle
+  if (std::all_of(f.tri.begin(), f.tri.end(), [](std::int32_t t) { return t < 0; })) {
+    const Vec3d p0 = tris[0].a;
+    const auto c = s.cellOf(p0);
+    const Vec3d p = s.center(c[0], c[1], c[2]);
+    const std::size_t cell = s.index(c[0], c[1], c[2]);
+    for (std::size_t t = 0; t < tris.size(); ++t) {
+      int feature = kFace;
+      const double d2 = triDist2(p, tris[t], feature);
+      if (d2 < f.d2[cell]) {
+        f.d2[cell] = static_cast<float>(d2);
+        f.tri[cell] = static_cast<std::int32_t>(t);
+      }
+    }
+  }
 }
 
-// cell c (centre p) tries the triangle of its neighbour nb
-inline void relax(const Surface& S, MeshField& f, std::size_t c, std::size_t nb, const Vec3d& p) {
-  std::int32_t t = f.tri[nb];
-  ++gRelax;
-  if (t < 0 || t == f.tri[c]) { ++gSame; return; }
-  int feature = kFace;
-  double d2 = triDist2(p, S.tris[static_cast<std::size_t>(t)], feature);
-  if (!(d2 < f.d2[c])) return;
-  ++gImprove;
-  descend(S, p, t, d2, feature);
-  f.d2[c] = static_cast<float>(d2);
-  f.tri[c] = canonical(S, t, feature);
-}
+// One propagation pass: cell c tries the triangle of its line
+// neighbour nb; an improvement is refined by descent and stamped with the pass.
+// A pair already compared in pass `seen` (same direction, previous round) is
+// skipped when nb has not changed since.
+struct Relax {
+  const Surface& S;
+  const GridSpec& s;
+  MeshField& f;
+  int pass, seen;
 
-void propagate(const Surface& tris, const GridSpec& s, MeshField& f) {
+  // cell c = (i, j, k), neighbour nb
+  void operator()(std::size_t c, std::size_t nb, int i, int j, int k) const {
+    std::int32_t t = f.tri[nb];
+    if (t < 0 || t == f.tri[c] || f.stamp[nb] <= seen) return;
+    const Vec3d p = s.center(i, j, k);
+    int feature = kFace;
+    double d2 = triDist2(p, S.tris[static_cast<std::size_t>(t)], feature);
+    if (!(d2 < f.d2[c])) return;
+    descend(S, p, t, d2, feature);
+    f.d2[c] = static_cast<float>(d2);
+    f.tri[c] = canonical(S, t, feature);
+    f.stamp[c] = static_cast<std::uint8_t>(pass);
+  }
+};
+
+// Two rounds of forward and backward passes along x, y and z lines.
+void propagate(const Surface& S, const GridSpec& s, MeshField& f) {
   const int nx = s.n[0], ny = s.n[1], nz = s.n[2];
   const std::size_t sy = static_cast<std::size_t>(nx), sz = static_cast<std::size_t>(nx) * ny;
-  static const int kRounds = getenv("SDF_ROUNDS") ? atoi(getenv("SDF_ROUNDS")) : 2;
-  for (int round = 0; round < kRounds; ++round) {
+  std::fill(f.stamp.begin(), f.stamp.end(), std::uint8_t{0});
+  for (int round = 0; round < 2; ++round) {
+    auto relax = [&](int dir) { return Relax{S, s, f, 6 * round + dir, round == 0 ? -1 : 6 * (round - 1) + dir}; };
     // x lines, one per body
-    parallelFor(static_cast<std::size_t>(ny) * nz, [&](std::size_t line) {
+    const Relax xf = relax(0), xb = relax(1);
+    parallelForDynamic(static_cast<std::size_t>(ny) * nz, 16, [&](std::size_t line) {
       const int j = static_cast<int>(line % ny), k = static_cast<int>(line / ny);
       const std::size_t base = s.index(0, j, k);
-      for (int i = 1; i < nx; ++i) relax(tris, f, base + i, base + i - 1, s.center(i, j, k));
-      for (int i = nx - 2; i >= 0; --i) relax(tris, f, base + i, base + i + 1, s.center(i, j, k));
+      for (int i = 1; i < nx; ++i) xf(base + i, base + i - 1, i, j, k);
+      for (int i = nx - 2; i >= 0; --i) xb(base + i, base + i + 1, i, j, k);
     });
     // y lines, one z-plane per body
-    parallelFor(static_cast<std::size_t>(nz), [&](std::size_t kk) {
+    const Relax yf = relax(2), yb = relax(3);
+    forEachPlane(static_cast<std::size_t>(nz), [&](std::size_t kk) {
       const int k = static_cast<int>(kk);
       for (int j = 1; j < ny; ++j) {
-        for (int i = 0; i < nx; ++i) relax(tris, f, s.index(i, j, k), s.index(i, j, k) - sy, s.center(i, j, k));
+        for (int i = 0; i < nx; ++i) yf(s.index(i, j, k), s.index(i, j, k) - sy, i, j, k);
       }
       for (int j = ny - 2; j >= 0; --j) {
-        for (int i = 0; i < nx; ++i) relax(tris, f, s.index(i, j, k), s.index(i, j, k) + sy, s.center(i, j, k));
+        for (int i = 0; i < nx; ++i) yb(s.index(i, j, k), s.index(i, j, k) + sy, i, j, k);
       }
     });
     // z lines, one y-slab per body
-    parallelFor(static_cast<std::size_t>(ny), [&](std::size_t jj) {
+    const Relax zf = relax(4), zb = relax(5);
+    forEachPlane(static_cast<std::size_t>(ny), [&](std::size_t jj) {
       const int j = static_cast<int>(jj);
       for (int k = 1; k < nz; ++k) {
-        for (int i = 0; i < nx; ++i) relax(tris, f, s.index(i, j, k), s.index(i, j, k) - sz, s.center(i, j, k));
+        for (int i = 0; i < nx; ++i) zf(s.index(i, j, k), s.index(i, j, k) - sz, i, j, k);
       }
       for (int k = nz - 2; k >= 0; --k) {
-        for (int i = 0; i < nx; ++i) relax(tris, f, s.index(i, j, k), s.index(i, j, k) + sz, s.center(i, j, k));
+        for (int i = 0; i < nx; ++i) zb(s.index(i, j, k), s.index(i, j, k) + sz, i, j, k);
       }
     });
   }
 }
 
+// Unsigned distance to the triangles of S at the cells of spec.
+MeshField unsignedField(const Surface& S, const GridSpec& spec) {
+  MeshField f;
+  f.d2.assign(spec.size(), std::numeric_limits<float>::infinity());
+  f.tri.assign(spec.size(), -1);
+  f.stamp.assign(spec.size(), 0);
+  seedBand(S, spec, f);
+  propagate(S, spec, f);
+  f.stamp = {};
+  return f;
+}
+
 // ---------------------------------------------------------------------------
 // Sign: crossing parity along grid lines, exact in integer coordinates
+
+// a box of cells: lo[a] .. lo[a] + n[a] - 1
+struct Block {
+  std::array<int, 3> lo{}, n{};
+  bool empty() const { return n[0] <= 0 || n[1] <= 0 || n[2] <= 0; }
+  std::size_t size() const { return empty() ? 0 : static_cast<std::size_t>(n[0]) * n[1] * n[2]; }
+  std::size_t local(int i, int j, int k) const {
+    return (static_cast<std::size_t>(k - lo[2]) * n[1] + (j - lo[1])) * n[0] + (i - lo[0]);
+  }
+  // the cells of the block as a grid of their own (same centres)
+  GridSpec spec(const GridSpec& g) const {
+    GridSpec s = g;
+    s.n = n;
+    for (int a = 0; a < 3; ++a) s.min[a] = g.min[a] + lo[a] * g.cell[a];
+    return s;
+  }
+};
+
+// the cells whose centres lie in box (only they can be inside a mesh bounded by it)
+Block blockOf(const Eigen::AlignedBox3d& box, const GridSpec& s) {
+  Block b;
+  for (int a = 0; a < 3; ++a) {
+    const Range r = centresIn(s, a, box.min()[a], box.max()[a]);
+    b.lo[a] = r.lo;
+    b.n[a] = r.hi - r.lo + 1;
+  }
+  return b;
+}
 
 using Lattice = std::array<std::int64_t, 3>;
 
@@ -353,28 +466,30 @@ inline std::int64_t orient(const Lattice& a, const Lattice& b, std::int64_t qm, 
   return (b[m] - a[m]) * (qo - a[o]) - (b[o] - a[o]) * (qm - a[m]);
 }
 
-// does a point on the (counter-clockwise) edge with direction (dm, do) count as
-// inside? Equivalent to testing the point moved by an infinitesimal (1, eps).
+// does a point on the (counter-clockwise) edge with direction (dm, dO) count as
+// inside? Equivalent to testing the point moved by an infinitesimal (1, eps)
+// in (m, o), so edges and vertices shared by a fan of triangles count once.
 inline bool ownsEdge(std::int64_t dm, std::int64_t dO) { return dO < 0 || (dO == 0 && dm > 0); }
 
-void voteSigns(const TriangleMesh& mesh, const GridSpec& s, MeshField& f) {
+// Inside/outside votes (-6..6, see the header) of the cells of block b for one mesh.
+std::vector<std::int8_t> voteSigns(const TriangleMesh& mesh, const GridSpec& s, const Block& b) {
   // lattice: about 2^-28 of the extent of grid and mesh together, centred
   Eigen::AlignedBox3d box = mesh.bounds();
   box.extend(s.min);
   box.extend(s.max());
   const Vec3d origin = box.center();
   const double extent = box.sizes().maxCoeff();
-  const double unit = extent > 0.0 ? extent / double(1 << 28) : 1.0;
+  const double unit = extent > 0.0 ? std::ldexp(extent, -28) : 1.0;
   auto snap = [&](double x, int a) { return static_cast<std::int64_t>(std::llround((x - origin[a]) / unit)); };
   std::vector<Lattice> verts(mesh.vertices.size());
   for (std::size_t v = 0; v < verts.size(); ++v) {
     for (int a = 0; a < 3; ++a) verts[v][a] = snap(mesh.vertices[v][a], a);
   }
-  std::array<std::vector<std::int64_t>, 3> centres;  // snapped cell-centre coordinates per axis
+  std::array<std::vector<std::int64_t>, 3> centres;  // snapped cell-centre coordinates of the block per axis
   for (int a = 0; a < 3; ++a) {
-    for (int i = 0; i < s.n[a]; ++i) centres[a].push_back(snap(s.min[a] + (i + 0.5) * s.cell[a], a));
+    for (int i = 0; i < b.n[a]; ++i) centres[a].push_back(snap(s.min[a] + (b.lo[a] + i + 0.5) * s.cell[a], a));
   }
-  // cells whose snapped centre lies in [lo, hi] along axis a
+  // block cells whose snapped centre lies in [lo, hi] along axis a
   auto latticeRange = [&](int a, std::int64_t lo, std::int64_t hi) {
     const auto& c = centres[a];
     Range r;
@@ -383,7 +498,7 @@ void voteSigns(const TriangleMesh& mesh, const GridSpec& s, MeshField& f) {
     return r;
   };
 
-  std::fill(f.votes.begin(), f.votes.end(), std::int8_t{0});
+  std::vector<std::int8_t> votes(b.size(), 0);
   for (int axis = 0; axis < 3; ++axis) {
     // lines along `axis` at (m, o) positions; bodies take one o-plane each
     const int m = axis == 0 ? 1 : 0, o = axis == 2 ? 1 : 2;
@@ -400,7 +515,7 @@ void voteSigns(const TriangleMesh& mesh, const GridSpec& s, MeshField& f) {
       proj[t].rm = latticeRange(m, std::min({A[m], B[m], C[m]}), std::max({A[m], B[m], C[m]}));
       proj[t].ro = latticeRange(o, std::min({A[o], B[o], C[o]}), std::max({A[o], B[o], C[o]}));
     }
-    parallelForDynamic(static_cast<std::size_t>(s.n[o]), 1, [&](std::size_t qq) {
+    forEachPlane(static_cast<std::size_t>(b.n[o]), [&](std::size_t qq) {
       const int q = static_cast<int>(qq);
       const std::int64_t qo = centres[o][q];
       std::vector<std::pair<int, double>> hits;  // (line index along m, crossing coordinate along axis)
@@ -415,78 +530,169 @@ void voteSigns(const TriangleMesh& mesh, const GridSpec& s, MeshField& f) {
           std::int64_t e[3];
           bool inside = true;
           for (int k = 0; k < 3 && inside; ++k) {
-            const Lattice& a = *v[(k + 1) % 3];
-            const Lattice& b = *v[(k + 2) % 3];
-            e[k] = P.sign * orient(a, b, qm, qo, m, o);
-            inside = e[k] > 0 || (e[k] == 0 && ownsEdge(P.sign * (b[m] - a[m]), P.sign * (b[o] - a[o])));
+            const Lattice& ea = *v[(k + 1) % 3];
+            const Lattice& eb = *v[(k + 2) % 3];
+            e[k] = P.sign * orient(ea, eb, qm, qo, m, o);
+            inside = e[k] > 0 || (e[k] == 0 && ownsEdge(P.sign * (eb[m] - ea[m]), P.sign * (eb[o] - ea[o])));
           }
           if (!inside) continue;
           // crossing point: barycentric weights from the edge functions
-          const double w0 = double(e[0]), w1 = double(e[1]), w2 = double(e[2]);
-          const double x = (w0 * mesh.vertices[idx[0]][axis] + w1 * mesh.vertices[idx[1]][axis] +
-                            w2 * mesh.vertices[idx[2]][axis]) /
-                           (w0 + w1 + w2);
+          const double w0 = static_cast<double>(e[0]), w1 = static_cast<double>(e[1]), w2 = static_cast<double>(e[2]);
+          const double x =
+              (w0 * mesh.vertices[idx[0]][axis] + w1 * mesh.vertices[idx[1]][axis] + w2 * mesh.vertices[idx[2]][axis]) /
+              (w0 + w1 + w2);
           hits.emplace_back(r, x);
         }
       }
       std::sort(hits.begin(), hits.end());
-      // walk each line: parity of crossings before and after every cell
+      // walk each line: parity of the crossings before and after every cell
       std::size_t h = 0;
-      for (int r = 0; r < s.n[m]; ++r) {
+      for (int r = 0; r < b.n[m]; ++r) {
         const std::size_t begin = h;
         while (h < hits.size() && hits[h].first == r) ++h;
         const std::size_t total = h - begin;
         std::size_t before = begin, upTo = begin;  // first hit >= x, first hit > x
         std::array<int, 3> c{};
-        c[m] = r;
-        c[o] = q;
-        for (int i = 0; i < s.n[axis]; ++i) {
-          c[axis] = i;
-          const double x = s.min[axis] + (i + 0.5) * s.cell[axis];
+        c[m] = b.lo[m] + r;
+        c[o] = b.lo[o] + q;
+        for (int i = 0; i < b.n[axis]; ++i) {
+          c[axis] = b.lo[axis] + i;
+          const double x = s.min[axis] + (c[axis] + 0.5) * s.cell[axis];
           while (before < h && hits[before].second < x) ++before;
           while (upTo < h && hits[upTo].second <= x) ++upTo;
           const bool insideFromStart = (before - begin) % 2 == 1;
           const bool insideFromEnd = (total - (upTo - begin)) % 2 == 1;
-          f.votes[s.index(c[0], c[1], c[2])] += static_cast<std::int8_t>((insideFromStart ? 1 : -1) + (insideFromEnd ? 1 : -1));
+          votes[b.local(c[0], c[1], c[2])] +=
+              static_cast<std::int8_t>((insideFromStart ? 1 : -1) + (insideFromEnd ? 1 : -1));
         }
       }
     });
   }
+  return votes;
 }
 
-// min of the mesh's signed distance into out
-void addMesh(const TriangleMesh& mesh, const GridSpec& s, MeshField& f, std::vector<float>& out) {
-  for (const auto& t : mesh.triangles) {
-    if (std::max({t[0], t[1], t[2]}) >= mesh.vertices.size()) {
-      throw std::invalid_argument("signedDistance: mesh " + mesh.source + " has a vertex index out of range");
+// ---------------------------------------------------------------------------
+// All meshes together
+
+// the meshes as one triangle set; meshOf[t] names the mesh of triangle t
+struct MergedMeshes {
+  TriangleMesh all;
+  std::vector<std::uint32_t> meshOf, firstTri;
+
+  explicit MergedMeshes(const std::vector<TriangleMesh>& meshes) {
+    for (std::size_t m = 0; m < meshes.size(); ++m) {
+      const TriangleMesh& mesh = meshes[m];
+      const auto offset = static_cast<std::uint32_t>(all.vertices.size());
+      firstTri.push_back(static_cast<std::uint32_t>(all.triangles.size()));
+      for (const auto& t : mesh.triangles) {
+        if (std::max({t[0], t[1], t[2]}) >= mesh.vertices.size()) {
+          throw std::invalid_argument("signedDistance: mesh " + mesh.source + " has a vertex index out of range");
+        }
+        all.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
+        meshOf.push_back(static_cast<std::uint32_t>(m));
+      }
+      all.vertices.insert(all.vertices.end(), mesh.vertices.begin(), mesh.vertices.end());
     }
+    firstTri.push_back(static_cast<std::uint32_t>(all.triangles.size()));
   }
-  const Surface S(mesh);
-  const std::vector<Tri>& tris = S.tris;
-  std::fill(f.d2.begin(), f.d2.end(), std::numeric_limits<float>::infinity());
-  std::fill(f.tri.begin(), f.tri.end(), -1);
-  auto T0 = std::chrono::steady_clock::now();
-  seedBand(S, s, f);
-  auto T1 = std::chrono::steady_clock::now();
-  if (getenv("SDF_TIMING")) fprintf(stderr, "seed evals %ld\n", gEvals); gEvals = 0;
-  propagate(S, s, f);
-  auto T2 = std::chrono::steady_clock::now();
-  if (getenv("SDF_TIMING")) fprintf(stderr, "prop evals %ld relax %ld same %ld improve %ld\n", gEvals, gRelax, gSame, gImprove); gEvals = gRelax = gSame = gImprove = 0;
-  voteSigns(mesh, s, f);
-  auto T3 = std::chrono::steady_clock::now();
-  if (getenv("SDF_TIMING")) fprintf(stderr, "seed %.1f prop %.1f sign %.1f\n", std::chrono::duration<double,std::milli>(T1-T0).count(), std::chrono::duration<double,std::milli>(T2-T1).count(), std::chrono::duration<double,std::milli>(T3-T2).count());
-  parallelFor(static_cast<std::size_t>(s.n[2]), [&](std::size_t kk) {
+};
+
+// Signed distance to the union of the meshes, min'ed into out. One unsigned
+// field for all triangles gives every cell outside all meshes, and every cell
+// inside one mesh whose nearest triangle is that mesh's; the others (inside
+// one mesh but nearer another, or inside several) get minus the largest of
+// their containing meshes' own distances, from a field of that mesh alone
+// over its bounding block.
+void addMeshes(const std::vector<TriangleMesh>& meshes, const GridSpec& s, std::vector<float>& out) {
+  const MergedMeshes merged(meshes);
+  if (merged.all.triangles.empty()) return;
+  const Surface S(merged.all);
+  const MeshField f = unsignedField(S, s);
+  const std::size_t nm = meshes.size();
+  auto meshOfCell = [&](std::size_t c) {
+    return static_cast<std::int32_t>(merged.meshOf[static_cast<std::size_t>(f.tri[c])]);
+  };
+
+  // inside tests, mesh by mesh over its block: container = -1 none, m, or -2 several
+  std::vector<std::int32_t> container(s.size(), -1);
+  std::vector<Block> blocks(nm);
+  std::vector<std::vector<std::uint8_t>> inside(nm);
+  for (std::size_t m = 0; m < nm; ++m) {
+    if (meshes[m].triangles.empty()) continue;
+    const Block b = blocks[m] = blockOf(meshes[m].bounds(), s);
+    if (b.empty()) continue;
+    const std::vector<std::int8_t> votes = voteSigns(meshes[m], s, b);
+    inside[m].assign(b.size(), 0);
+    const auto mi = static_cast<std::int32_t>(m);
+    forEachPlane(static_cast<std::size_t>(b.n[2]), [&](std::size_t kk) {
+      const int k = b.lo[2] + static_cast<int>(kk);
+      for (int j = b.lo[1]; j < b.lo[1] + b.n[1]; ++j) {
+        for (int i = b.lo[0]; i < b.lo[0] + b.n[0]; ++i) {
+          const std::size_t l = b.local(i, j, k), c = s.index(i, j, k);
+          bool in = votes[l] > 0;
+          if (votes[l] == 0) {  // tie: side of the plane of this mesh's nearest triangle
+            std::size_t t = static_cast<std::size_t>(f.tri[c]);
+            if (meshOfCell(c) != mi) {
+              double best = std::numeric_limits<double>::infinity();
+              for (std::size_t u = merged.firstTri[m]; u < merged.firstTri[m + 1]; ++u) {
+                int feature = kFace;
+                const double d2 = triDist2(s.center(i, j, k), S.tris[u], feature);
+                if (d2 < best) {
+                  best = d2;
+                  t = u;
+                }
+              }
+            }
+            in = (s.center(i, j, k) - S.tris[t].a).dot(S.tris[t].n) < 0.0;
+          }
+          inside[m][l] = in ? 1 : 0;
+          if (in) container[c] = container[c] == -1 ? mi : -2;
+        }
+      }
+    });
+  }
+
+  // depth of the cells that need their containing meshes' own distances
+  std::vector<float> depth;
+  for (std::size_t m = 0; m < nm; ++m) {
+    const Block& b = blocks[m];
+    if (inside[m].empty()) continue;
+    const auto mi = static_cast<std::int32_t>(m);
+    auto needs = [&](int i, int j, int k) {
+      const std::size_t c = s.index(i, j, k);
+      return inside[m][b.local(i, j, k)] != 0 && (container[c] == -2 || meshOfCell(c) != mi);
+    };
+    bool any = false;
+    for (int k = b.lo[2]; k < b.lo[2] + b.n[2] && !any; ++k) {
+      for (int j = b.lo[1]; j < b.lo[1] + b.n[1] && !any; ++j) {
+        for (int i = b.lo[0]; i < b.lo[0] + b.n[0] && !any; ++i) any = needs(i, j, k);
+      }
+    }
+    if (!any) continue;
+    if (depth.empty()) depth.assign(s.size(), 0.0f);
+    const MeshField own = unsignedField(Surface(meshes[m]), b.spec(s));
+    forEachPlane(static_cast<std::size_t>(b.n[2]), [&](std::size_t kk) {
+      const int k = b.lo[2] + static_cast<int>(kk);
+      for (int j = b.lo[1]; j < b.lo[1] + b.n[1]; ++j) {
+        for (int i = b.lo[0]; i < b.lo[0] + b.n[0]; ++i) {
+          if (!needs(i, j, k)) continue;
+          float& d = depth[s.index(i, j, k)];
+          d = std::max(d, std::sqrt(own.d2[b.local(i, j, k)]));
+        }
+      }
+    });
+  }
+
+  // signed values
+  forEachPlane(static_cast<std::size_t>(s.n[2]), [&](std::size_t kk) {
     const int k = static_cast<int>(kk);
     for (int j = 0; j < s.n[1]; ++j) {
       for (int i = 0; i < s.n[0]; ++i) {
         const std::size_t c = s.index(i, j, k);
-        bool inside = f.votes[c] > 0;
-        if (f.votes[c] == 0) {  // tie: side of the nearest triangle's plane
-          const Tri& T = tris[static_cast<std::size_t>(f.tri[c])];
-          inside = (s.center(i, j, k) - T.a).dot(T.n) < 0.0;
-        }
+        const std::int32_t box = container[c];
         const float d = std::sqrt(f.d2[c]);
-        out[c] = std::min(out[c], inside ? -d : d);
+        const float v = box == -1 ? d : (box >= 0 && meshOfCell(c) == box ? -d : -depth[c]);
+        out[c] = std::min(out[c], v);
       }
     }
   });
@@ -495,11 +701,15 @@ void addMesh(const TriangleMesh& mesh, const GridSpec& s, MeshField& f, std::vec
 }  // namespace
 
 Grid3<float> signedDistance(const Obstacles& obstacles, const GridSpec& spec) {
+  for (int a = 0; a < 3; ++a) {
+    if (spec.n[a] < 1 || !(spec.cell[a] > 0.0) || !std::isfinite(spec.cell[a]) || !std::isfinite(spec.min[a])) {
+      throw std::invalid_argument("signedDistance: invalid grid");
+    }
+  }
   Grid3<float> g(spec, kSdfFar);
-  if (g.data.empty()) return g;
   // analytic obstacles, exact
   if (!obstacles.spheres.empty() || !obstacles.boxes.empty()) {
-    parallelFor(static_cast<std::size_t>(spec.n[2]), [&](std::size_t kk) {
+    forEachPlane(static_cast<std::size_t>(spec.n[2]), [&](std::size_t kk) {
       const int k = static_cast<int>(kk);
       for (int j = 0; j < spec.n[1]; ++j) {
         for (int i = 0; i < spec.n[0]; ++i) {
@@ -512,17 +722,7 @@ Grid3<float> signedDistance(const Obstacles& obstacles, const GridSpec& spec) {
       }
     });
   }
-  // meshes, one at a time (scratch reused)
-  MeshField f;
-  for (const TriangleMesh& mesh : obstacles.meshes) {
-    if (mesh.triangles.empty()) continue;
-    if (f.d2.empty()) {
-      f.d2.resize(spec.size());
-      f.tri.resize(spec.size());
-      f.votes.resize(spec.size());
-    }
-    addMesh(mesh, spec, f, g.data);
-  }
+  if (!obstacles.meshes.empty()) addMeshes(obstacles.meshes, spec, g.data);
   return g;
 }
 
