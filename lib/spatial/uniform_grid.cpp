@@ -86,16 +86,22 @@ void UniformGrid::build(const float* x, const float* y, const float* z, std::siz
 void UniformGrid::gatherCell(std::size_t c, float r, CellBlock& block) const {
   const int cell[3] = {static_cast<int>(c % dims_[0]), static_cast<int>((c / dims_[0]) % dims_[1]),
                        static_cast<int>(c / (static_cast<std::size_t>(dims_[0]) * dims_[1]))};
-  gatherCells(cell, cell, r, block);
-}
-
-void UniformGrid::gatherCells(const int first[3], const int last[3], float r, CellBlock& block) const {
   int lo[3], hi[3];
   for (int a = 0; a < 3; ++a) {
     const int span = spanFor(r, a);
-    lo[a] = std::max(0, first[a] - span);
-    hi[a] = std::min(dims_[a] - 1, last[a] + span);
+    lo[a] = std::max(0, cell[a] - span);
+    hi[a] = std::min(dims_[a] - 1, cell[a] + span);
   }
+  gatherBox(lo, hi, block);
+}
+
+void UniformGrid::gatherAround(float qx, float qy, float qz, float r, CellBlock& block) const {
+  int lo[3], hi[3];
+  cellRange(qx, qy, qz, r, lo, hi);
+  gatherBox(lo, hi, block);
+}
+
+void UniformGrid::gatherBox(const int lo[3], const int hi[3], CellBlock& block) const {
   std::size_t total = 0;
   for (int cz = lo[2]; cz <= hi[2]; ++cz) {
     for (int cy = lo[1]; cy <= hi[1]; ++cy) {

@@ -73,8 +73,18 @@ class UniformGrid {
   // gather into `block` every point of the cells that can hold a point within
   // r of some point of cell c (a superset; use CellBlock::filter per query)
   void gatherCell(std::size_t c, float r, CellBlock& block) const;
-  // the same for the box of cells first..last (inclusive cell coordinates)
-  void gatherCells(const int first[3], const int last[3], float r, CellBlock& block) const;
+  // gather the points of the cells overlapping the cube of half-width r about q
+  void gatherAround(float qx, float qy, float qz, float r, CellBlock& block) const;
+  // inclusive cell ranges overlapping [q - r, q + r] on each axis: every point
+  // within r of q lies in them (cell coordinates are monotone in position)
+  void cellRange(float qx, float qy, float qz, float r, int lo[3], int hi[3]) const {
+    const double q[3] = {qx, qy, qz};
+    const double rr = static_cast<double>(r) * (1.0 + 1e-6);  // slack for float rounding of distances
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = cellCoord(q[a] - rr, a);
+      hi[a] = cellCoord(q[a] + rr, a);
+    }
+  }
   float cellSize(int axis) const { return static_cast<float>(1.0 / inv_[axis]); }
 
   // call f(k, dx, dy, dz, d2) for every sorted point k with d2 = |p_k - q|^2 <= r^2,
@@ -85,13 +95,7 @@ class UniformGrid {
     if (order_.empty()) return;
     const float r2 = r * r;
     int lo[3], hi[3];
-    const float q[3] = {qx, qy, qz};
-    for (int a = 0; a < 3; ++a) {
-      const int c = cellCoord(q[a], a);
-      const int span = spanFor(r, a);
-      lo[a] = std::max(0, c - span);
-      hi[a] = std::min(dims_[a] - 1, c + span);
-    }
+    cellRange(qx, qy, qz, r, lo, hi);
     for (int cz = lo[2]; cz <= hi[2]; ++cz) {
       for (int cy = lo[1]; cy <= hi[1]; ++cy) {
         const std::size_t row = (static_cast<std::size_t>(cz) * dims_[1] + cy) * dims_[0];
@@ -128,6 +132,8 @@ class UniformGrid {
   }
 
  private:
+  // gather the points of cells lo..hi (inclusive) into block
+  void gatherBox(const int lo[3], const int hi[3], CellBlock& block) const;
   // cells to search on each side for radius r. Cell coordinates are computed
   // in double, so they are exact to ~1e-12 cells; the 1e-6 slack makes a radius
   // equal to the cell edge search two cells, while a radius of minCell (cells
@@ -135,8 +141,8 @@ class UniformGrid {
   int spanFor(float r, int axis) const {
     return static_cast<int>(std::floor(static_cast<double>(r) * inv_[axis] * (1.0 + 1e-6))) + 1;
   }
-  int cellCoord(float v, int axis) const {
-    const double t = (static_cast<double>(v) - origin_[axis]) * inv_[axis];
+  int cellCoord(double v, int axis) const {
+    const double t = (v - origin_[axis]) * inv_[axis];
     if (!(t > 0.0)) return 0;  // also catches NaN
     return std::min(dims_[axis] - 1, static_cast<int>(t));
   }
@@ -162,46 +168,34 @@ void forEachPointNeighbors(const UniformGrid& grid, float r, std::vector<CellBlo
   const float* sx = grid.sortedX().data();
   const float* sy = grid.sortedY().data();
   const float* sz = grid.sortedZ().data();
-  // sparse grids gather for 2x2x2 cells at once: gathering walks cell rows,
-  // which costs more than filtering the extra candidates
-  const int b = 2 * grid.size() < 3 * grid.cellCount() ? 2 : 1;
-  const int nb[3] = {(grid.dim(0) + b - 1) / b, (grid.dim(1) + b - 1) / b, (grid.dim(2) + b - 1) / b};
-  const std::size_t tiles = static_cast<std::size_t>(nb[0]) * nb[1] * nb[2];
-  const auto tileWork = [&](std::size_t t) {
-    const int tc[3] = {static_cast<int>(t % nb[0]), static_cast<int>((t / nb[0]) % nb[1]),
-                       static_cast<int>(t / (static_cast<std::size_t>(nb[0]) * nb[1]))};
-    int first[3], last[3];
-    for (int a = 0; a < 3; ++a) {
-      first[a] = tc[a] * b;
-      last[a] = std::min(grid.dim(a) - 1, first[a] + b - 1);
-    }
-    // the tile's points: one contiguous range per (y, z) row of its cells
-    const auto rowRange = [&](int cy, int cz) {
-      const std::size_t row = (static_cast<std::size_t>(cz) * grid.dim(1) + cy) * grid.dim(0);
-      return std::make_pair(grid.cellBegin(row + first[0]), grid.cellEnd(row + last[0]));
+  // sparse grids (cells coarsened to hold few points, each at least the radius
+  // wide): gather per point over the 1-2 cells per axis its ball overlaps;
+  // dense grids: gather once per cell and share it among the cell's points
+  if (2 * grid.size() < grid.cellCount()) {
+    const auto pointWork = [&](std::size_t k) {
+      CellBlock& block = blocks[static_cast<std::size_t>(threadIndex())];
+      grid.gatherAround(sx[k], sy[k], sz[k], r, block);
+      visit(static_cast<std::uint32_t>(k), block, block.filter(sx[k], sy[k], sz[k], r));
     };
-    bool any = false;
-    for (int cz = first[2]; cz <= last[2] && !any; ++cz) {
-      for (int cy = first[1]; cy <= last[1] && !any; ++cy) {
-        const auto [a0, a1] = rowRange(cy, cz);
-        any = a1 > a0;
-      }
+    if (grid.size() < kSerialBelow) {
+      for (std::size_t k = 0; k < grid.size(); ++k) pointWork(k);
+    } else {
+      parallelForDynamic(grid.size(), 256, pointWork);
     }
-    if (!any) return;
+    return;
+  }
+  const auto cellWork = [&](std::size_t c) {
+    const std::uint32_t a0 = grid.cellBegin(c), a1 = grid.cellEnd(c);
+    if (a0 == a1) return;
     CellBlock& block = blocks[static_cast<std::size_t>(threadIndex())];
-    grid.gatherCells(first, last, r, block);
-    for (int cz = first[2]; cz <= last[2]; ++cz) {
-      for (int cy = first[1]; cy <= last[1]; ++cy) {
-        const auto [a0, a1] = rowRange(cy, cz);
-        for (std::uint32_t k = a0; k < a1; ++k) visit(k, block, block.filter(sx[k], sy[k], sz[k], r));
-      }
-    }
+    grid.gatherCell(c, r, block);
+    for (std::uint32_t k = a0; k < a1; ++k) visit(k, block, block.filter(sx[k], sy[k], sz[k], r));
   };
   if (grid.size() < kSerialBelow) {  // few points: not worth waking the team
-    for (std::size_t t = 0; t < tiles; ++t) tileWork(t);
+    for (std::size_t c = 0; c < grid.cellCount(); ++c) cellWork(c);
   } else {
-    const std::size_t chunk = std::clamp<std::size_t>(tiles / (16 * blocks.size()), 1, 64);
-    parallelForDynamic(tiles, chunk, tileWork);
+    const std::size_t chunk = std::clamp<std::size_t>(grid.cellCount() / (16 * blocks.size()), 1, 64);
+    parallelForDynamic(grid.cellCount(), chunk, cellWork);
   }
 }
 
