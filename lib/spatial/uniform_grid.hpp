@@ -168,9 +168,9 @@ void forEachPointNeighbors(const UniformGrid& grid, float r, std::vector<CellBlo
   const float* sx = grid.sortedX().data();
   const float* sy = grid.sortedY().data();
   const float* sz = grid.sortedZ().data();
-  // sparse grids (cells coarsened to hold few points, each at least the radius
-  // wide): gather per point over the 1-2 cells per axis its ball overlaps;
-  // dense grids: gather once per cell and share it among the cell's points
+  // sparse grids (cells coarsened to hold few points): gather per point over
+  // the cells its ball overlaps; otherwise gather once per cell and share it
+  // among the cell's points
   if (2 * grid.size() < grid.cellCount()) {
     const auto pointWork = [&](std::size_t k) {
       CellBlock& block = blocks[static_cast<std::size_t>(threadIndex())];

@@ -230,29 +230,24 @@ class FieldModel final : public Model {
     std::size_t moved = 0;
     if (p_.minDistance > 0.0 && n > 1) {
       const float md = static_cast<float>(p_.minDistance);
-      grid_.build(nx_.data(), ny_.data(), nz_.data(), n, md, 8.0);
+      // cells of 2 d_min: an agent's ball overlaps at most 2 cells per axis
+      grid_.build(nx_.data(), ny_.data(), nz_.data(), n, 2.0f * md, 8.0);
       const auto& order = grid_.order();
       const float* sx = grid_.sortedX().data();
       const float* sy = grid_.sortedY().data();
       const float* sz = grid_.sortedZ().data();
       movedFlag_.assign(n, 0);
-      forEachPointNeighbors(grid_, md, blocks_, [&](std::uint32_t k, const CellBlock& block, std::size_t hits) {
+      parallelFor(n, [&](std::size_t k) {
         const std::uint32_t i = order[k];
         Vec3 push = Vec3::Zero();
-        for (std::size_t h = 0; h < hits; ++h) {
-          const std::uint32_t b = block.hits[h];
-          const std::uint32_t j = block.index[b];
-          const float d2 = block.d2[b];
-          if (j == k || d2 >= md * md) continue;
+        grid_.forEachNeighbor(sx[k], sy[k], sz[k], md, [&](std::uint32_t j, float dx, float dy, float dz, float d2) {
+          if (j == k || d2 >= md * md) return;
           const float d = std::sqrt(d2);
-          Vec3 dir;
-          if (d > 0.0f) {
-            dir = Vec3(sx[k] - block.x[b], sy[k] - block.y[b], sz[k] - block.z[b]) / d;
-          } else {  // coincident: separate along x, by id
-            dir = Vec3(s.id[i] < s.id[order[j]] ? -1.0f : 1.0f, 0.0f, 0.0f);
-          }
+          // away from the neighbour; coincident agents separate along x, by id
+          const Vec3 dir = d > 0.0f ? Vec3(-dx / d, -dy / d, -dz / d)
+                                    : Vec3(s.id[i] < s.id[order[j]] ? -1.0f : 1.0f, 0.0f, 0.0f);
           push += dir * (0.5f * (md - d));  // each of the pair moves half the deficit
-        }
+        });
         movedFlag_[k] = push.squaredNorm() > 0.0f ? 1 : 0;
         next_.id[k] = s.id[i];
         next_.px[k] = sx[k] + push.x();
@@ -381,7 +376,6 @@ class FieldModel final : public Model {
   long long solves_ = 0;
   // scratch, reused every step
   UniformGrid grid_;
-  std::vector<CellBlock> blocks_;
   std::vector<float> nx_, ny_, nz_, vx_, vy_, vz_;
   std::vector<std::uint8_t> movedFlag_;
   SwarmState next_;
