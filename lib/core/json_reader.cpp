@@ -116,7 +116,10 @@ JsonReader::JsonReader(const Json& object, std::string file, std::string path, J
 
 std::string JsonReader::pathOf(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
 
-bool JsonReader::has(const std::string& key) const { return object_->contains(key); }
+bool JsonReader::has(const std::string& key) const {
+  const auto it = object_->find(key);
+  return it != object_->end() && !it->is_null();  // null counts as absent
+}
 
 std::string JsonReader::closeUnreadKey(const std::string& key) const {
   std::string best;

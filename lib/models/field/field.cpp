@@ -49,19 +49,7 @@ GoalSpec readGoal(JsonReader g) {
   GoalSpec goal;
   const std::string type = g.choice("type", "", {"sphere", "box"});
   if (type.empty()) g.failMissing("type", "\"sphere\" or \"box\"");
-  if (type == "sphere") {
-    goal.kind = GoalSpec::Kind::kSphere;
-    goal.center = g.requireVec3("center");
-    goal.radius = g.requireNumber("radius", Range::positive());
-  } else {
-    goal.kind = GoalSpec::Kind::kBox;
-    const Vec3d lo = g.requireVec3("min"), hi = g.requireVec3("max");
-    for (int a = 0; a < 3; ++a) {
-      if (!(hi[a] > lo[a])) g.fail("max", std::string("expected max > min on every axis (axis ") + "xyz"[a] + ")");
-    }
-    goal.center = 0.5 * (lo + hi);
-    goal.halfSize = 0.5 * (hi - lo);
-  }
+  // keyframes first: with them, the goal's own centre is optional (the first key's)
   std::vector<JsonReader> keys = g.objectArray("keyframes", false, 0);
   for (std::size_t i = 0; i < keys.size(); ++i) {
     const double t = keys[i].requireNumber("time", Range::nonNegative());
@@ -71,6 +59,19 @@ GoalSpec readGoal(JsonReader g) {
     goal.keyTimes.push_back(t);
     goal.keyCenters.push_back(keys[i].requireVec3("center"));
     keys[i].finish();
+  }
+  if (type == "sphere") {
+    goal.kind = GoalSpec::Kind::kSphere;
+    goal.center = keys.empty() ? g.requireVec3("center") : g.vec3("center", goal.keyCenters.front());
+    goal.radius = g.requireNumber("radius", Range::positive());
+  } else {
+    goal.kind = GoalSpec::Kind::kBox;
+    const Vec3d lo = g.requireVec3("min"), hi = g.requireVec3("max");
+    for (int a = 0; a < 3; ++a) {
+      if (!(hi[a] > lo[a])) g.fail("max", std::string("expected max > min on every axis (axis ") + "xyz"[a] + ")");
+    }
+    goal.center = 0.5 * (lo + hi);
+    goal.halfSize = 0.5 * (hi - lo);
   }
   g.finish();
   return goal;
@@ -204,11 +205,16 @@ class FieldModel final : public Model {
     parallelFor(n, [&](std::size_t i) {
       const Vec3 x = s.position(i);
       Vec3 v;
-      if (p_.noise == NoiseKind::kWhite) {
-        AgentRng rng(world.seed, info.step, s.id[i], RngPurpose::kNoise, info.swarmIndex);
-        v = (hasGoals_ ? global_.sample(x) : Vec3::Zero()) + rng.normal3() * gain;
-      } else {
+      if (combinedOk_) {
         v = combined_.sample(x);  // V = ∇×N + V_g (eq. 9), one lookup
+      } else {
+        v = hasGoals_ ? global_.sample(x) : Vec3::Zero();
+        if (p_.noise == NoiseKind::kWhite) {
+          AgentRng rng(world.seed, info.step, s.id[i], RngPurpose::kNoise, info.swarmIndex);
+          v += rng.normal3() * gain;
+        } else {
+          v += noise_.sample(x);
+        }
       }
       if (p_.phototaxis) {
         AgentRng rng(world.seed, info.step, s.id[i], RngPurpose::kPhototaxis, info.swarmIndex);
@@ -291,7 +297,8 @@ class FieldModel final : public Model {
  private:
   // V = noise + V_g on the noise grid (V_g sampled there), so a step does one lookup
   void combine() {
-    if (p_.noise == NoiseKind::kWhite) return;
+    combinedOk_ = p_.noise != NoiseKind::kWhite && noiseSpec_.cell.maxCoeff() <= costSpec_.cell.minCoeff();
+    if (!combinedOk_) return;  // a coarser noise grid would blur V_g: two lookups then
     combined_ = noise_;
     if (!hasGoals_) return;
     const GridSpec& g = combined_.spec;
@@ -366,7 +373,7 @@ class FieldModel final : public Model {
   Grid3<Vec3f> global_;       // V_g (eq. 8)
   Grid3<Vec3f> noise_;        // ∇×N (eq. 1), or plain Perlin for the baseline
   Grid3<Vec3f> combined_;     // noise_ + V_g on the noise grid (eq. 9)
-  bool hasGoals_ = false, dynamicGoals_ = false, hasObstacles_ = false;
+  bool hasGoals_ = false, dynamicGoals_ = false, hasObstacles_ = false, combinedOk_ = false;
   float radius_ = 0.0f;
   std::vector<Vec3d> solvedCenters_;
   double tDistance_ = 0.0, tCost_ = 0.0, tNoise_ = 0.0, tFmm_ = 0.0, lastFmmSeconds_ = 0.0;
