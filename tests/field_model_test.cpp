@@ -45,6 +45,12 @@ swarmsim::Grid3<float> fineDistance(const Scenario& sc, double cell) {
   return swarmsim::signedDistance(*sc.obstacles, swarmsim::GridSpec::covering(sc.domain.min, sc.domain.max, n));
 }
 
+// every step of the scenario's frames
+void runWhole(Simulation& sim, const Scenario& sc) {
+  const std::int64_t steps = (sc.frames - 1) * sc.stepsPerFrame;
+  for (std::int64_t k = 0; k < steps; ++k) sim.step();
+}
+
 double insideFraction(const swarmsim::SwarmState& s, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
   std::size_t in = 0;
   for (std::size_t i = 0; i < s.size(); ++i) {
@@ -172,8 +178,7 @@ TEST_CASE("Field scenarios: no agent ends inside an obstacle", "[field][scenario
 TEST_CASE("Field scenarios: the two_blocks swarm reaches its goal", "[field][scenario]") {
   const Scenario sc = swarmsim::loadScenario(kScenarios + "two_blocks.json");
   Simulation sim(sc);
-  const std::int64_t steps = (sc.frames - 1) * sc.stepsPerFrame;
-  for (std::int64_t k = 0; k < steps; ++k) sim.step();
+  runWhole(sim, sc);
   const double f = insideFraction(sim.swarms()[0], {48, 10, 2}, {54, 20, 10});
   INFO("fraction inside the goal box at the end: " << f);
   CHECK(f >= 0.9);
@@ -182,8 +187,7 @@ TEST_CASE("Field scenarios: the two_blocks swarm reaches its goal", "[field][sce
 TEST_CASE("Field scenarios: crossing swarms both arrive", "[field][scenario]") {
   const Scenario sc = swarmsim::loadScenario(kScenarios + "crossing.json");
   Simulation sim(sc);
-  const std::int64_t steps = (sc.frames - 1) * sc.stepsPerFrame;
-  for (std::int64_t k = 0; k < steps; ++k) sim.step();
+  runWhole(sim, sc);
   const auto goalOf = [&](std::size_t i) {
     const Json& g = sc.resolved["swarms"][i]["params"]["goals"][0];
     return std::make_pair(Eigen::Vector3d(g["min"][0], g["min"][1], g["min"][2]),
