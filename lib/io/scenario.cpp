@@ -59,7 +59,12 @@ std::shared_ptr<const Obstacles> readObstacles(JsonReader& r, const std::string&
       } else if (scale) {
         t.scale = o.vec3("scale", Vec3d::Ones(), Range::positive());
       }
-      TriangleMesh mesh = loadObj(path.lexically_normal().string(), t);
+      TriangleMesh mesh;
+      try {
+        mesh = loadObj(path.lexically_normal().string(), t);
+      } catch (const InputError& e) {  // say which scenario entry referenced it
+        throw InputError(file + ": " + o.pathOf("file") + ": " + e.what());
+      }
       if (!isWatertight(mesh)) {
         warnings.push_back(path.lexically_normal().string() +
                            ": mesh is not watertight; inside and outside are decided by majority voting (docs/models/field.md)");
