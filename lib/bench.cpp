@@ -50,6 +50,32 @@ double median(std::vector<double> v) {
 
 using Clock = std::chrono::steady_clock;
 
+// The field model's rows again, in the columns of wang2014's Table 1: per swarm,
+// agents, noise scale and gain, s0, grid, preprocessing split, steps/s, MDE %.
+void printTable1(const std::vector<BenchRow>& rows, std::ostream& out) {
+  bool header = false;
+  char line[320];
+  for (const auto& row : rows) {
+    for (const auto& info : row.modelInfo) {
+      if (!info.contains("t_distance")) continue;
+      if (!header) {
+        out << "\nTable 1 columns (field model):\n";
+        std::snprintf(line, sizeof line, "%-20s %9s %6s %6s %5s %-13s %10s %8s %8s %8s %10s %7s\n", "scenario", "agents",
+                      "scale", "gain", "s0", "cost grid", "distance_s", "cost_s", "fmm_s", "noise_s", "steps/s", "MDE_%");
+        out << line;
+        header = true;
+      }
+      std::snprintf(line, sizeof line, "%-20s %9lld %6.3g %6.3g %5.3g %-13s %10.4f %8.4f %8.4f %8.4f %10.1f %7.2f\n",
+                    (row.scenario + (row.modelInfo.size() > 1 ? "/" + info.value("swarm", std::string()) : "")).c_str(),
+                    static_cast<long long>(info.value("agents", row.agents)), info.value("scale", 0.0),
+                    info.value("gain", 0.0), info.value("s0", 0.0), info.value("cost_grid", std::string()).c_str(),
+                    info.value("t_distance", 0.0), info.value("t_cost", 0.0), info.value("t_fast_marching", 0.0),
+                    info.value("t_noise", 0.0), row.stepsPerSecond, info.value("mde_percent", 0.0));
+      out << line;
+    }
+  }
+}
+
 }  // namespace
 
 std::vector<std::string> builtinBenchCases() {
@@ -95,7 +121,14 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
           const double s = std::chrono::duration<double>(Clock::now() - t0).count();
           rate.push_back(static_cast<double>(steps) / s);
           info = Json::array();
-          for (std::size_t i = 0; i < sc.swarms.size(); ++i) info.push_back(sim.model(i).benchInfo());
+          for (std::size_t i = 0; i < sc.swarms.size(); ++i) {
+            Json facts = sim.model(i).benchInfo();
+            if (!facts.empty()) {
+              facts["swarm"] = sc.swarms[i].name;
+              facts["agents"] = sc.swarms[i].count;
+            }
+            info.push_back(std::move(facts));
+          }
         }
         BenchRow row;
         row.scenario = sc.name;
@@ -134,6 +167,7 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
             if (row.modelInfo[i].empty()) continue;
             std::string facts;
             for (const auto& item : row.modelInfo[i].items()) {
+              if (item.key() == "swarm" || item.key() == "agents") continue;
               std::string v;
               if (item.value().is_number_float()) {
                 char num[32];
@@ -151,6 +185,7 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
       }
     }
   }
+  if (!options.json) printTable1(rows, out);
   return rows;
 }
 
