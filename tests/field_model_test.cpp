@@ -83,7 +83,9 @@ TEST_CASE("Field model: keyframed goals interpolate and hold", "[field]") {
 TEST_CASE("Field model: MDE pushes a close pair to the minimum distance and records it", "[field]") {
   // two agents 0.1 m apart, no goal, no noise: one step of MDE with d_min 0.3
   // moves each by (0.3 - 0.1) / 2 = 0.1 along their line
-  Json j = smallField({{"min_distance", 0.3}}, 2);
+  const std::string pairs = GENERATE(std::string("neighbours"), std::string("same_cell"));
+  INFO("mde_pairs " << pairs);
+  Json j = smallField({{"min_distance", 0.3}, {"mde_pairs", pairs}}, 2);
   j["swarms"][0]["spawn"] = {{"type", "box"}, {"min", {5, 5, 5}}, {"max", {5.1, 5, 5}}};
   const Scenario sc = swarmsim::parseScenario(j, "mde.json");
   Simulation sim(sc);

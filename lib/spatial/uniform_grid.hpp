@@ -70,6 +70,8 @@ class UniformGrid {
   // sorted positions [cellBegin(c), cellEnd(c)) are the points of cell c
   std::uint32_t cellBegin(std::size_t c) const { return start_[c]; }
   std::uint32_t cellEnd(std::size_t c) const { return start_[c + 1]; }
+  // the cell of original point i
+  std::size_t cellOfPoint(std::uint32_t i) const { return cell_[i]; }
   // gather into `block` every point of the cells that can hold a point within
   // r of some point of cell c (a superset; use CellBlock::filter per query)
   void gatherCell(std::size_t c, float r, CellBlock& block) const;

@@ -230,14 +230,28 @@ class FieldModel final : public Model {
       nz_[i] = x.z() + v.z() * dt;
     });
 
-    // phase 2: minimum distance enforcement on the tentative positions; the
-    // state is rewritten in grid order (spatial sorting)
+    // keep clear of obstacles and inside the domain (applied to each final position)
+    const Vec3 lo = domain_.min.cast<float>(), hi = domain_.max.cast<float>();
+    const auto settle = [&](std::size_t k, Vec3 x) {
+      if (hasObstacles_) x = clearObstacles(x);
+      x = x.cwiseMax(lo).cwiseMin(hi);
+      next_.px[k] = x.x();
+      next_.py[k] = x.y();
+      next_.pz[k] = x.z();
+    };
+
+    // phase 2: minimum distance enforcement on the tentative positions, then
+    // clearance; the state is rewritten in grid order (spatial sorting)
     next_.resizeStorage(n);
     std::size_t moved = 0;
     if (p_.minDistance > 0.0 && n > 1) {
       const float md = static_cast<float>(p_.minDistance);
-      // cells of 2 d_min: an agent's ball overlaps at most 2 cells per axis
-      grid_.build(nx_.data(), ny_.data(), nz_.data(), n, 2.0f * md, 8.0);
+      // "neighbours": every pair closer than d_min, found in cells of 2 d_min (an
+      // agent's ball overlaps at most 2 cells per axis). "same_cell": the paper's
+      // rule, only pairs sharing a cell of the cost grid's size.
+      const bool sameCell = p_.mdePairs == MdePairs::kSameCell;
+      grid_.build(nx_.data(), ny_.data(), nz_.data(), n,
+                  sameCell ? static_cast<float>(costSpec_.cell.minCoeff()) : 2.0f * md, 8.0);
       const auto& order = grid_.order();
       const float* sx = grid_.sortedX().data();
       const float* sy = grid_.sortedY().data();
@@ -246,19 +260,26 @@ class FieldModel final : public Model {
       parallelFor(n, [&](std::size_t k) {
         const std::uint32_t i = order[k];
         Vec3 push = Vec3::Zero();
-        grid_.forEachNeighbor(sx[k], sy[k], sz[k], md, [&](std::uint32_t j, float dx, float dy, float dz, float d2) {
+        const auto pushFrom = [&](std::uint32_t j, float dx, float dy, float dz, float d2) {
           if (j == k || d2 >= md * md) return;
           const float d = std::sqrt(d2);
           // away from the neighbour; coincident agents separate along x, by id
           const Vec3 dir = d > 0.0f ? Vec3(-dx / d, -dy / d, -dz / d)
                                     : Vec3(s.id[i] < s.id[order[j]] ? -1.0f : 1.0f, 0.0f, 0.0f);
           push += dir * (0.5f * (md - d));  // each of the pair moves half the deficit
-        });
+        };
+        if (sameCell) {
+          const std::size_t c = grid_.cellOfPoint(i);
+          for (std::uint32_t j = grid_.cellBegin(c); j < grid_.cellEnd(c); ++j) {
+            const float dx = sx[j] - sx[k], dy = sy[j] - sy[k], dz = sz[j] - sz[k];
+            pushFrom(j, dx, dy, dz, dx * dx + dy * dy + dz * dz);
+          }
+        } else {
+          grid_.forEachNeighbor(sx[k], sy[k], sz[k], md, pushFrom);
+        }
         movedFlag_[k] = push.squaredNorm() > 0.0f ? 1 : 0;
         next_.id[k] = s.id[i];
-        next_.px[k] = sx[k] + push.x();
-        next_.py[k] = sy[k] + push.y();
-        next_.pz[k] = sz[k] + push.z();
+        settle(k, Vec3(sx[k], sy[k], sz[k]) + push);
         next_.vx[k] = vx_[i];
         next_.vy[k] = vy_[i];
         next_.vz[k] = vz_[i];
@@ -267,25 +288,13 @@ class FieldModel final : public Model {
     } else {
       parallelFor(n, [&](std::size_t i) {
         next_.id[i] = s.id[i];
-        next_.px[i] = nx_[i];
-        next_.py[i] = ny_[i];
-        next_.pz[i] = nz_[i];
+        settle(i, Vec3(nx_[i], ny_[i], nz_[i]));
         next_.vx[i] = vx_[i];
         next_.vy[i] = vy_[i];
         next_.vz[i] = vz_[i];
       });
     }
 
-    // phase 3: keep clear of obstacles and inside the domain
-    const Vec3 lo = domain_.min.cast<float>(), hi = domain_.max.cast<float>();
-    parallelFor(n, [&](std::size_t k) {
-      Vec3 x(next_.px[k], next_.py[k], next_.pz[k]);
-      if (hasObstacles_) x = clearObstacles(x);
-      x = x.cwiseMax(lo).cwiseMin(hi);
-      next_.px[k] = x.x();
-      next_.py[k] = x.y();
-      next_.pz[k] = x.z();
-    });
     s.swapStorage(next_);
 
     frameMoved_ += moved;
@@ -463,6 +472,8 @@ FieldParams readFieldParams(JsonReader& r, const ModelContext& context) {
   for (JsonReader& g : r.objectArray("goals", false, 0)) p.goals.push_back(readGoal(g));
   p.minDistance = r.number("min_distance", p.minDistance, Range::nonNegative());
   p.agentRadius = r.number("agent_radius", 0.5 * p.minDistance, Range::nonNegative());
+  p.mdePairs = r.choice("mde_pairs", "neighbours", {"neighbours", "same_cell"}) == "same_cell" ? MdePairs::kSameCell
+                                                                                               : MdePairs::kNeighbours;
   if (r.has("phototaxis")) {
     JsonReader ph = r.object("phototaxis", false);
     p.phototaxis = true;

@@ -42,6 +42,9 @@ struct GoalSpec {
 };
 
 enum class NoiseKind { kCurl, kPerlin, kWhite };
+// which pairs MDE examines: all pairs closer than min_distance, or (the paper's
+// rule) only pairs within the same cell of the cost grid's size
+enum class MdePairs { kNeighbours, kSameCell };
 
 struct FieldParams {
   double speed = 1.5;                       // s0, m/s
@@ -57,6 +60,7 @@ struct FieldParams {
   std::vector<GoalSpec> goals;
   double minDistance = 0.0;                 // MDE threshold, m (0: off)
   double agentRadius = 0.0;                 // clearance kept from obstacles, m (default: min_distance / 2)
+  MdePairs mdePairs = MdePairs::kNeighbours;
   bool phototaxis = false;
   Vec3d light = Vec3d::Zero();              // m
   double phototaxisProbability = 0.0;       // per step
