@@ -1,6 +1,7 @@
 #pragma once
 // The one place parallel loops go through. Every body must write only to its
 // own index, so results do not depend on the number of threads.
+#include <algorithm>
 #include <cstddef>
 
 #include <omp.h>
@@ -29,6 +30,21 @@ void parallelForDynamic(std::size_t n, std::size_t chunk, F&& body) {
   const int c = static_cast<int>(chunk);
 #pragma omp parallel for schedule(dynamic, c)
   for (long long i = 0; i < count; ++i) body(static_cast<std::size_t>(i));
+}
+
+// Split [0, n) into one contiguous chunk per thread, in index order, and call
+// body(begin, end, chunk) once per chunk (chunk < chunkCount(n)); for per-thread
+// partial results combined afterwards in chunk order. Small n: one chunk.
+inline int chunkCount(std::size_t n) { return n < kSerialBelow ? 1 : omp_get_max_threads(); }
+template <typename F>
+void parallelChunks(std::size_t n, F&& body) {
+  const int chunks = chunkCount(n);
+  const std::size_t size = (n + static_cast<std::size_t>(chunks) - 1) / static_cast<std::size_t>(chunks);
+#pragma omp parallel for schedule(static, 1) num_threads(chunks) if (chunks > 1)
+  for (int t = 0; t < chunks; ++t) {
+    const std::size_t a = std::min(n, static_cast<std::size_t>(t) * size), b = std::min(n, a + size);
+    body(a, b, t);
+  }
 }
 
 // index of the calling thread inside a parallel loop (0 outside, and in loops

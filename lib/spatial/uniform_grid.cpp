@@ -1,5 +1,7 @@
 #include "spatial/uniform_grid.hpp"
 
+#include <array>
+#include <cmath>
 #include <limits>
 #include <stdexcept>
 
@@ -10,28 +12,36 @@ namespace swarmsim {
 void UniformGrid::build(const float* x, const float* y, const float* z, std::size_t n, float minCell,
                         double cellsPerPoint) {
   if (!(minCell > 0.0f)) throw std::invalid_argument("UniformGrid::build: cell size must be > 0");
-  // bounding box (min/max do not depend on evaluation order)
-  float lo[3] = {std::numeric_limits<float>::max(), std::numeric_limits<float>::max(),
-                 std::numeric_limits<float>::max()};
-  float hi[3] = {-lo[0], -lo[1], -lo[2]};
-  const float* p[3] = {x, y, z};
-  for (int a = 0; a < 3; ++a) {
-    float l = lo[a], h = hi[a];
-    long long nans = 0;
-    const float* v = p[a];
-    const long long count = static_cast<long long>(n);
-#pragma omp parallel for reduction(min : l) reduction(max : h) reduction(+ : nans) schedule(static) if (n >= kSerialBelow)
-    for (long long i = 0; i < count; ++i) {
-      l = std::min(l, v[i]);
-      h = std::max(h, v[i]);
-      nans += std::isnan(v[i]) ? 1 : 0;
+  // bounding box: per-chunk min/max, then combined (exact, so order-free)
+  constexpr float kBig = std::numeric_limits<float>::max();
+  const int chunks = chunkCount(n);
+  std::vector<std::array<float, 7>> part(static_cast<std::size_t>(chunks));
+  parallelChunks(n, [&](std::size_t first, std::size_t last, int t) {
+    std::array<float, 7> r = {kBig, kBig, kBig, -kBig, -kBig, -kBig, 0.0f};  // lo xyz, hi xyz, any NaN
+    for (std::size_t i = first; i < last; ++i) {
+      const float v[3] = {x[i], y[i], z[i]};
+      for (int a = 0; a < 3; ++a) {
+        r[a] = std::min(r[a], v[a]);
+        r[3 + a] = std::max(r[3 + a], v[a]);
+        if (std::isnan(v[a])) r[6] = 1.0f;
+      }
     }
-    if (n == 0) l = h = 0.0f;
-    if (nans > 0 || !std::isfinite(l) || !std::isfinite(h)) {
+    part[static_cast<std::size_t>(t)] = r;
+  });
+  float lo[3] = {kBig, kBig, kBig}, hi[3] = {-kBig, -kBig, -kBig};
+  bool nan = false;
+  for (const auto& r : part) {
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], r[a]);
+      hi[a] = std::max(hi[a], r[3 + a]);
+    }
+    nan = nan || r[6] != 0.0f;
+  }
+  for (int a = 0; a < 3; ++a) {
+    if (n == 0) lo[a] = hi[a] = 0.0f;
+    if (nan || !std::isfinite(lo[a]) || !std::isfinite(hi[a])) {
       throw std::runtime_error("UniformGrid::build: non-finite agent position");
     }
-    lo[a] = l;
-    hi[a] = h;
   }
   // cell edge: slightly above minCell so a query of radius minCell spans +-1 cell
   // despite rounding; coarsened until there are at most ~2 cells per point
@@ -64,10 +74,35 @@ void UniformGrid::build(const float* x, const float* y, const float* z, std::siz
   });
   // counting sort, stable in point index
   start_.assign(ncell + 1, 0);
-  for (std::size_t i = 0; i < n; ++i) ++start_[cell_[i] + 1];
-  for (std::size_t c = 0; c < ncell; ++c) start_[c + 1] += start_[c];
   order_.resize(n);
-  {
+  const int teams = chunkCount(n);
+  if (teams > 1 && ncell <= 4 * n) {
+    // parallel: each chunk counts and then places its own contiguous range of
+    // points; chunks are in index order, so the result equals the serial sort
+    const std::size_t T = static_cast<std::size_t>(teams);
+    cursor_.assign(T * ncell, 0);  // per-chunk counts, then per-chunk cursors
+    parallelChunks(n, [&](std::size_t first, std::size_t last, int t) {
+      std::uint32_t* count = cursor_.data() + static_cast<std::size_t>(t) * ncell;
+      for (std::size_t i = first; i < last; ++i) ++count[cell_[i]];
+    });
+    std::uint32_t base = 0;
+    for (std::size_t c = 0; c < ncell; ++c) {
+      start_[c] = base;
+      for (std::size_t t = 0; t < T; ++t) {
+        std::uint32_t& slot = cursor_[t * ncell + c];
+        const std::uint32_t cnt = slot;
+        slot = base;
+        base += cnt;
+      }
+    }
+    start_[ncell] = base;
+    parallelChunks(n, [&](std::size_t first, std::size_t last, int t) {
+      std::uint32_t* next = cursor_.data() + static_cast<std::size_t>(t) * ncell;
+      for (std::size_t i = first; i < last; ++i) order_[next[cell_[i]]++] = static_cast<std::uint32_t>(i);
+    });
+  } else {
+    for (std::size_t i = 0; i < n; ++i) ++start_[cell_[i] + 1];
+    for (std::size_t c = 0; c < ncell; ++c) start_[c + 1] += start_[c];
     std::vector<std::uint32_t>& next = cursor_;
     next.assign(start_.begin(), start_.end() - 1);
     for (std::size_t i = 0; i < n; ++i) order_[next[cell_[i]]++] = static_cast<std::uint32_t>(i);
