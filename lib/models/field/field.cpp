@@ -256,7 +256,7 @@ class FieldModel final : public Model {
       const float* sx = grid_.sortedX().data();
       const float* sy = grid_.sortedY().data();
       const float* sz = grid_.sortedZ().data();
-      movedFlag_.assign(n, 0);
+      movedFlag_.resize(n);
       parallelFor(n, [&](std::size_t k) {
         const std::uint32_t i = order[k];
         Vec3 push = Vec3::Zero();
@@ -284,7 +284,14 @@ class FieldModel final : public Model {
         next_.vy[k] = vy_[i];
         next_.vz[k] = vz_[i];
       });
-      for (std::size_t k = 0; k < n; ++k) moved += movedFlag_[k];
+      std::vector<std::size_t>& counts = movedCounts_;
+      counts.assign(static_cast<std::size_t>(chunkCount(n)), 0);
+      parallelChunks(n, [&](std::size_t first, std::size_t last, int chunk) {
+        std::size_t c = 0;
+        for (std::size_t k = first; k < last; ++k) c += movedFlag_[k];
+        counts[static_cast<std::size_t>(chunk)] = c;
+      });
+      for (const std::size_t c : counts) moved += c;
     } else {
       parallelFor(n, [&](std::size_t i) {
         next_.id[i] = s.id[i];
@@ -394,6 +401,7 @@ class FieldModel final : public Model {
   UniformGrid grid_;
   std::vector<float> nx_, ny_, nz_, vx_, vy_, vz_;
   std::vector<std::uint8_t> movedFlag_;
+  std::vector<std::size_t> movedCounts_;  // per chunk
   SwarmState next_;
 };
 
