@@ -148,6 +148,9 @@ class UniformGrid {
 template <typename F>
 void forEachPointNeighbors(const UniformGrid& grid, float r, std::vector<CellBlock>& blocks, F&& visit) {
   blocks.resize(static_cast<std::size_t>(threadCount()));
+  // each point's work is a whole neighbourhood scan: worth the team from a few
+  // hundred points on (plain index loops use the higher kSerialBelow)
+  constexpr std::size_t kSerialPointsBelow = 256;
   const float* sx = grid.sortedX().data();
   const float* sy = grid.sortedY().data();
   const float* sz = grid.sortedZ().data();
@@ -160,7 +163,7 @@ void forEachPointNeighbors(const UniformGrid& grid, float r, std::vector<CellBlo
       grid.gatherAround(sx[k], sy[k], sz[k], r, block);
       visit(static_cast<std::uint32_t>(k), block, block.filter(sx[k], sy[k], sz[k], r));
     };
-    if (grid.size() < kSerialBelow) {
+    if (grid.size() < kSerialPointsBelow) {
       for (std::size_t k = 0; k < grid.size(); ++k) pointWork(k);
     } else {
       parallelForDynamic(grid.size(), 256, pointWork);
@@ -174,7 +177,7 @@ void forEachPointNeighbors(const UniformGrid& grid, float r, std::vector<CellBlo
     grid.gatherCell(c, r, block);
     for (std::uint32_t k = a0; k < a1; ++k) visit(k, block, block.filter(sx[k], sy[k], sz[k], r));
   };
-  if (grid.size() < kSerialBelow) {  // few points: not worth waking the team
+  if (grid.size() < kSerialPointsBelow) {  // few points: not worth waking the team
     for (std::size_t c = 0; c < grid.cellCount(); ++c) cellWork(c);
   } else {
     const std::size_t chunk = std::clamp<std::size_t>(grid.cellCount() / (16 * blocks.size()), 1, 64);
