@@ -60,8 +60,6 @@ std::string formatBytes(std::uintmax_t b) {
 
 }  // namespace
 
-void requestStop() { gStop.store(true); }
-
 void installStopHandlers() {
   gStop.store(false);
   struct sigaction sa {};

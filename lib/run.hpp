@@ -61,9 +61,8 @@ struct RunResult {
 // stop it at the next frame boundary with a valid file.
 RunResult runScenario(const Scenario& scenario, const RunOptions& options);
 
-// request a stop at the next frame boundary (what the signal handlers do)
-void requestStop();
-// install SIGINT/SIGTERM handlers that call requestStop(); clears any earlier request
+// install SIGINT/SIGTERM handlers that request a stop at the next frame
+// boundary; clears any earlier request
 void installStopHandlers();
 
 }  // namespace swarmsim

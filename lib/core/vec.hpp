@@ -6,7 +6,6 @@
 namespace swarmsim {
 
 using Vec3 = Eigen::Vector3f;
-using Vec3f = Eigen::Vector3f;
 using Vec3d = Eigen::Vector3d;
 
 // unit vector of v, or zero when v is (numerically) zero

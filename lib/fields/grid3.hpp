@@ -35,6 +35,11 @@ struct GridSpec {
   Vec3d center(int i, int j, int k) const {
     return min + Vec3d((i + 0.5) * cell[0], (j + 0.5) * cell[1], (k + 0.5) * cell[2]);
   }
+  // centre of the cell with flat index c
+  Vec3d centerOfIndex(std::size_t c) const {
+    const std::size_t plane = static_cast<std::size_t>(n[0]) * n[1];
+    return center(static_cast<int>(c % n[0]), static_cast<int>((c / n[0]) % n[1]), static_cast<int>(c / plane));
+  }
   Vec3d max() const { return min + Vec3d(n[0] * cell[0], n[1] * cell[1], n[2] * cell[2]); }
   // the cell containing p, clamped to the grid
   std::array<int, 3> cellOf(const Vec3d& p) const {

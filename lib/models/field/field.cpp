@@ -21,8 +21,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-constexpr float kFar = 1e30f;  // "no boundary nearby"
-
 std::string dimsText(const std::array<int, 3>& n) {
   return std::to_string(n[0]) + "x" + std::to_string(n[1]) + "x" + std::to_string(n[2]);
 }
@@ -93,19 +91,23 @@ class FieldModel final : public Model {
     noiseSpec_ = GridSpec::covering(world.domain.min, world.domain.max, p.noiseCells);
     const Obstacles& obs = *world.obstacles;
 
-    // distances: obstacles at the cost grid and at the noise grid (eq. 5)
+    // distances (eq. 5): at the cost grid, and at the noise grid where the curl
+    // noise's boundary blend or the obstacle clearance (finer grid) needs them
     auto t0 = Clock::now();
-    sdfCost_ = obs.empty() ? Grid3<float>(costSpec_, kFar) : signedDistance(obs, costSpec_);
-    Grid3<float> sdfNoise = obs.empty() ? Grid3<float>(noiseSpec_, kFar) : signedDistance(obs, noiseSpec_);
+    const bool noiseFiner = noiseSpec_.cell.minCoeff() < costSpec_.cell.minCoeff();
+    Grid3<float> sdfCost = signedDistance(obs, costSpec_);
+    Grid3<float> sdfNoise;
+    if (p_.noise == NoiseKind::kCurl || noiseFiner) sdfNoise = signedDistance(obs, noiseSpec_);
     tDistance_ = since(t0);
 
     // cost: per-cell |∇C| = A + B g (eq. 7 as we read it), obstacles impassable, then fast marching
     t0 = Clock::now();
     const double diag = costSpec_.cell.norm();  // a: the cell diagonal (3-D)
-    costF_.resize(costSpec_.size());
-    parallelFor(costF_.size(), [&](std::size_t c) {
-      const float phi = sdfCost_.data[c];
-      costF_[c] = phi < 0.0f ? std::numeric_limits<float>::infinity()
+    fmmIn_.spec = costSpec_;
+    fmmIn_.cost.resize(costSpec_.size());
+    parallelFor(fmmIn_.cost.size(), [&](std::size_t c) {
+      const float phi = sdfCost.data[c];
+      fmmIn_.cost[c] = phi < 0.0f ? std::numeric_limits<float>::infinity()
                              : static_cast<float>(p_.pathWeight + p_.repulsionWeight * bell(phi / (2.0 * diag)));
     });
     solveCost(0.0);
@@ -124,16 +126,11 @@ class FieldModel final : public Model {
       if (p_.noise == NoiseKind::kCurl) {
         // boundary distance: obstacles and the domain's walls
         Grid3<float> boundary = sdfNoise;
-        for (int k = 0; k < noiseSpec_.n[2]; ++k) {
-          for (int j = 0; j < noiseSpec_.n[1]; ++j) {
-            for (int i = 0; i < noiseSpec_.n[0]; ++i) {
-              const Vec3d c = noiseSpec_.center(i, j, k);
-              const double wall = std::min((c - domain_.min).minCoeff(), (domain_.max - c).minCoeff());
-              float& b = boundary.at(i, j, k);
-              b = std::min(b, static_cast<float>(wall));
-            }
-          }
-        }
+        parallelFor(boundary.data.size(), [&](std::size_t c) {
+          const Vec3d centre = noiseSpec_.centerOfIndex(c);
+          const double wall = std::min((centre - domain_.min).minCoeff(), (domain_.max - centre).minCoeff());
+          boundary.data[c] = std::min(boundary.data[c], static_cast<float>(wall));
+        });
         noise_ = curl(noisePotential(noiseSpec_, np, &boundary));
       } else {
         noise_ = perlinVelocity(noiseSpec_, np);
@@ -144,7 +141,7 @@ class FieldModel final : public Model {
     combine();
 
     // obstacle clearance uses the finer of the two distance grids
-    clearanceSdf_ = noiseSpec_.cell.minCoeff() < costSpec_.cell.minCoeff() ? std::move(sdfNoise) : sdfCost_;
+    clearanceSdf_ = noiseFiner ? std::move(sdfNoise) : std::move(sdfCost);
     hasObstacles_ = !obs.empty();
     radius_ = static_cast<float>(p_.agentRadius);
     // cells so far from obstacles that no point in them can need clearance (the
@@ -322,11 +319,8 @@ class FieldModel final : public Model {
     if (!combinedOk_) return;  // a coarser noise grid would blur V_g: two lookups then
     combined_ = noise_;
     if (!hasGoals_) return;
-    const GridSpec& g = combined_.spec;
-    parallelFor(g.size(), [&](std::size_t c) {
-      const int i = static_cast<int>(c % g.n[0]), j = static_cast<int>((c / g.n[0]) % g.n[1]);
-      const int k = static_cast<int>(c / (static_cast<std::size_t>(g.n[0]) * g.n[1]));
-      combined_.data[c] += global_.sample(g.center(i, j, k).cast<float>());
+    parallelFor(combined_.data.size(), [&](std::size_t c) {
+      combined_.data[c] += global_.sample(combined_.spec.centerOfIndex(c).cast<float>());
     });
   }
 
@@ -359,9 +353,7 @@ class FieldModel final : public Model {
     dynamicGoals_ = false;
     for (const auto& g : p_.goals) dynamicGoals_ = dynamicGoals_ || !g.keyTimes.empty();
     if (!hasGoals_) return;
-    FastMarchingInput in;
-    in.spec = costSpec_;
-    in.cost = costF_;
+    FastMarchingInput& in = fmmIn_;  // cost per cell set once; goals per solve
     in.goal.assign(costSpec_.size(), 0);
     for (std::size_t g = 0; g < p_.goals.size(); ++g) {
       bool any = false;
@@ -391,12 +383,12 @@ class FieldModel final : public Model {
   FieldParams p_;
   Aabb domain_;
   GridSpec costSpec_, noiseSpec_;
-  Grid3<float> sdfCost_, clearanceSdf_;
+  Grid3<float> clearanceSdf_;  // obstacles' signed distance on the finer grid
   std::vector<std::uint8_t> clearFar_;  // per clearance cell: 1 = no clearance needed anywhere in it
-  std::vector<float> costF_;  // |∇C| per cost cell (inf inside obstacles)
-  Grid3<Vec3f> global_;       // V_g (eq. 8)
-  Grid3<Vec3f> noise_;        // ∇×N (eq. 1), or plain Perlin for the baseline
-  Grid3<Vec3f> combined_;     // noise_ + V_g on the noise grid (eq. 9)
+  FastMarchingInput fmmIn_;   // |∇C| per cost cell (inf inside obstacles) and the goal cells
+  Grid3<Vec3> global_;       // V_g (eq. 8)
+  Grid3<Vec3> noise_;        // ∇×N (eq. 1), or plain Perlin for the baseline
+  Grid3<Vec3> combined_;     // noise_ + V_g on the noise grid (eq. 9)
   bool hasGoals_ = false, dynamicGoals_ = false, hasObstacles_ = false, combinedOk_ = false;
   float radius_ = 0.0f;
   std::vector<Vec3d> solvedCenters_;
