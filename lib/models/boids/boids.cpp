@@ -42,7 +42,8 @@ class Boids final : public Model {
     // the grid (one rebuild per step), then unit velocities in cell order
     grid_.build(s.px.data(), s.py.data(), s.pz.data(), n, r3_);
     const auto& order = grid_.order();
-    for (auto* a : {&sux_, &suy_, &suz_, &nvx_, &nvy_, &nvz_}) a->resize(n);
+    for (auto* a : {&sux_, &suy_, &suz_}) a->resize(n);
+    next_.resizeStorage(n);
     parallelFor(n, [&](std::size_t k) {
       const Vec3 u = normalizedOrZero(s.velocity(order[k]));
       sux_[k] = u.x();
@@ -111,23 +112,17 @@ class Boids final : public Model {
         const Vec3 dirv = sp > 1e-12f ? Vec3(nv / sp) : (vhat.squaredNorm() > 0.0f ? vhat : Vec3(1.0f, 0.0f, 0.0f));
         nv = dirv * smin;
       }
-      nvx_[k] = nv.x();
-      nvy_[k] = nv.y();
-      nvz_[k] = nv.z();
-    });
-    // phase 2: apply, storing the agents in cell order (spatial sorting keeps
-    // the next step's memory accesses local)
-    next_.resizeStorage(n);
-    parallelFor(n, [&](std::size_t k) {
-      const std::uint32_t i = order[k];
+      // the new state goes to a separate buffer, in cell order (spatial sorting
+      // keeps the next step's memory accesses local); nothing reads it this step
       next_.id[k] = s.id[i];
-      next_.vx[k] = nvx_[k];
-      next_.vy[k] = nvy_[k];
-      next_.vz[k] = nvz_[k];
-      next_.px[k] = sx[k] + nvx_[k] * dt;
-      next_.py[k] = sy[k] + nvy_[k] * dt;
-      next_.pz[k] = sz[k] + nvz_[k] * dt;
+      next_.vx[k] = nv.x();
+      next_.vy[k] = nv.y();
+      next_.vz[k] = nv.z();
+      next_.px[k] = x.x() + nv.x() * dt;
+      next_.py[k] = x.y() + nv.y() * dt;
+      next_.pz[k] = x.z() + nv.z() * dt;
     });
+    // phase 2: the new state becomes current
     s.swapStorage(next_);
   }
 
@@ -136,7 +131,7 @@ class Boids final : public Model {
   float r1_, r2_, r3_, cosHalfFov_;
   UniformGrid grid_;
   // scratch, reused every step (no allocation once sized)
-  std::vector<float> sux_, suy_, suz_, nvx_, nvy_, nvz_;  // by sorted position
+  std::vector<float> sux_, suy_, suz_;  // unit velocities by sorted position
   SwarmState next_;                                       // the state being written in phase 2
   std::vector<CellBlock> blocks_;                         // per-thread neighbour candidates
 };
