@@ -132,8 +132,8 @@ class Boids final : public Model {
   UniformGrid grid_;
   // scratch, reused every step (no allocation once sized)
   std::vector<float> sux_, suy_, suz_;  // unit velocities by sorted position
-  SwarmState next_;                                       // the state being written in phase 2
-  std::vector<CellBlock> blocks_;                         // per-thread neighbour candidates
+  SwarmState next_;                     // the state being written in phase 2
+  std::vector<CellBlock> blocks_;       // per-thread neighbour candidates
 };
 
 }  // namespace
