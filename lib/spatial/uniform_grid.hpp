@@ -89,6 +89,21 @@ class UniformGrid {
   }
   float cellSize(int axis) const { return static_cast<float>(1.0 / inv_[axis]); }
 
+  // call f(begin, end) for each run [begin, end) of sorted positions that can
+  // hold points within r of q (one run per (y, z) cell row; rows may be empty)
+  template <typename F>
+  void forEachRun(float qx, float qy, float qz, float r, F&& f) const {
+    if (order_.empty()) return;
+    int lo[3], hi[3];
+    cellRange(qx, qy, qz, r, lo, hi);
+    for (int cz = lo[2]; cz <= hi[2]; ++cz) {
+      for (int cy = lo[1]; cy <= hi[1]; ++cy) {
+        const std::size_t row = (static_cast<std::size_t>(cz) * dims_[1] + cy) * dims_[0];
+        f(start_[row + lo[0]], start_[row + hi[0] + 1]);
+      }
+    }
+  }
+
   // call f(k, dx, dy, dz, d2) for every sorted point k with d2 = |p_k - q|^2 <= r^2,
   // where (dx, dy, dz) = p_k - q. Includes the query point itself if it is a
   // grid point (d2 = 0). Any r works; r <= minCell visits at most 27 cells.

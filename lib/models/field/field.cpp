@@ -12,6 +12,7 @@
 #include "fields/grid3.hpp"
 #include "geometry/obstacles.hpp"
 #include "geometry/signed_distance.hpp"
+#include "models/field/mde.hpp"
 #include "spatial/uniform_grid.hpp"
 
 namespace swarmsim {
@@ -29,7 +30,8 @@ std::string dimsText(const std::array<int, 3>& n) {
 std::array<int, 3> readCells(JsonReader& r, const std::string& key, bool required, int lo, int hi) {
   const Json* v = r.raw(key);
   if (!v) {
-    if (required) r.failMissing(key, "an array of 3 integers in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    if (required)
+      r.failMissing(key, "an array of 3 integers in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
     return {0, 0, 0};
   }
   const std::string expected = "an array of 3 integers in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
@@ -108,7 +110,7 @@ class FieldModel final : public Model {
     parallelFor(fmmIn_.cost.size(), [&](std::size_t c) {
       const float phi = sdfCost.data[c];
       fmmIn_.cost[c] = phi < 0.0f ? std::numeric_limits<float>::infinity()
-                             : static_cast<float>(p_.pathWeight + p_.repulsionWeight * bell(phi / (2.0 * diag)));
+                                  : static_cast<float>(p_.pathWeight + p_.repulsionWeight * bell(phi / (2.0 * diag)));
     });
     solveCost(0.0);
     tCost_ = since(t0);
@@ -162,21 +164,21 @@ class FieldModel final : public Model {
 
   Json benchInfo() const override {
     const char* noise = p_.noise == NoiseKind::kCurl ? "curl" : p_.noise == NoiseKind::kPerlin ? "perlin" : "white";
-    return {{"noise", noise},
-            {"scale", p_.scale},
-            {"gain", p_.gain},
-            {"s0", p_.speed},
-            {"cost_grid", dimsText(costSpec_.n)},
-            {"noise_grid", dimsText(noiseSpec_.n)},
-            {"t_distance", tDistance_},
-            {"t_cost", tCost_},
-            {"t_fast_marching", tFmm_},
-            {"t_noise", tNoise_},
-            {"mde_percent", totalAgentSteps_ > 0 ? 100.0 * static_cast<double>(totalMoved_) /
-                                                       static_cast<double>(totalAgentSteps_)
-                                                 : 0.0},
-            {"cost_solves", solves_},
-            {"cost_solve_seconds", totalSolveSeconds_}};
+    return {
+        {"noise", noise},
+        {"scale", p_.scale},
+        {"gain", p_.gain},
+        {"s0", p_.speed},
+        {"cost_grid", dimsText(costSpec_.n)},
+        {"noise_grid", dimsText(noiseSpec_.n)},
+        {"t_distance", tDistance_},
+        {"t_cost", tCost_},
+        {"t_fast_marching", tFmm_},
+        {"t_noise", tNoise_},
+        {"mde_percent",
+         totalAgentSteps_ > 0 ? 100.0 * static_cast<double>(totalMoved_) / static_cast<double>(totalAgentSteps_) : 0.0},
+        {"cost_solves", solves_},
+        {"cost_solve_seconds", totalSolveSeconds_}};
   }
 
   void step(const World& world, SwarmState& s, const StepInfo& info) override {
@@ -259,33 +261,84 @@ class FieldModel final : public Model {
       const float* sy = grid_.sortedY().data();
       const float* sz = grid_.sortedZ().data();
       movedFlag_.resize(n);
-      parallelFor(n, [&](std::size_t k) {
-        const std::uint32_t i = order[k];
-        Vec3 push = Vec3::Zero();
-        const auto pushFrom = [&](std::uint32_t j, float dx, float dy, float dz, float d2) {
-          if (j == k || d2 >= md * md) return;
-          const float d = std::sqrt(d2);
-          // away from the neighbour; coincident agents separate along x, by id
-          const Vec3 dir = d > 0.0f ? Vec3(-dx / d, -dy / d, -dz / d)
-                                    : Vec3(s.id[i] < s.id[order[j]] ? -1.0f : 1.0f, 0.0f, 0.0f);
-          push += dir * (0.5f * (md - d));  // each of the pair moves half the deficit
-        };
-        if (sameCell) {
-          const std::size_t c = grid_.cellOfPoint(i);
-          for (std::uint32_t j = grid_.cellBegin(c); j < grid_.cellEnd(c); ++j) {
-            const float dx = sx[j] - sx[k], dy = sy[j] - sy[k], dz = sz[j] - sz[k];
-            pushFrom(j, dx, dy, dz, dx * dx + dy * dy + dz * dz);
+      if (sameCell) {
+        // each pair once, cell by cell: a cell's pairs move only its own agents
+        for (auto* a : {&pushX_, &pushY_, &pushZ_}) a->resize(n);
+        hits_.resize(n);
+        const std::size_t cells = grid_.cellCount();
+        const auto cellWork = [&](std::size_t c) {
+          const std::uint32_t b = grid_.cellBegin(c), e = grid_.cellEnd(c);
+          if (b == e) return;
+          if (mdeWithinRun(sx, sy, sz, b, e, md, pushX_.data(), pushY_.data(), pushZ_.data(), hits_.data())) {
+            // exactly coincident agents (rare) separate along x, ordered by id
+            for (std::uint32_t k = b; k < e; ++k) {
+              for (std::uint32_t j = k + 1; j < e; ++j) {
+                if (sx[j] != sx[k] || sy[j] != sy[k] || sz[j] != sz[k]) continue;
+                const float f = (s.id[order[k]] < s.id[order[j]] ? 0.5f : -0.5f) * md;
+                pushX_[k] -= f;
+                pushX_[j] += f;
+                ++hits_[k];
+                ++hits_[j];
+              }
+            }
           }
+          for (std::uint32_t k = b; k < e; ++k) {
+            const std::uint32_t i = order[k];
+            movedFlag_[k] = hits_[k] > 0 ? 1 : 0;
+            next_.id[k] = s.id[i];
+            settle(k, Vec3(sx[k] + pushX_[k], sy[k] + pushY_[k], sz[k] + pushZ_[k]));
+            next_.vx[k] = vx_[i];
+            next_.vy[k] = vy_[i];
+            next_.vz[k] = vz_[i];
+          }
+        };
+        if (n < kSerialBelow) {  // few agents: not worth waking the team
+          for (std::size_t c = 0; c < cells; ++c) cellWork(c);
         } else {
-          grid_.forEachNeighbor(sx[k], sy[k], sz[k], md, pushFrom);
+          parallelForDynamic(
+              cells, std::clamp<std::size_t>(cells / (32 * static_cast<std::size_t>(threadCount())), 1, 256), cellWork);
         }
-        movedFlag_[k] = push.squaredNorm() > 0.0f ? 1 : 0;
-        next_.id[k] = s.id[i];
-        settle(k, Vec3(sx[k], sy[k], sz[k]) + push);
-        next_.vx[k] = vx_[i];
-        next_.vy[k] = vy_[i];
-        next_.vz[k] = vz_[i];
-      });
+      } else {
+        parallelFor(n, [&](std::size_t k) {
+          const std::uint32_t i = order[k];
+          MdePush kernel(md);
+          kernel.start(sx[k], sy[k], sz[k]);
+          if (sameCell) {
+            const std::size_t c = grid_.cellOfPoint(i);
+            kernel.add(sx, sy, sz, grid_.cellBegin(c), grid_.cellEnd(c));
+          } else {
+            grid_.forEachRun(sx[k], sy[k], sz[k], md,
+                             [&](std::uint32_t b, std::uint32_t e) { kernel.add(sx, sy, sz, b, e); });
+          }
+          Vec3 push = kernel.push();
+          bool pushed = kernel.hits() > 0;
+          if (kernel.zeros() > 1) {
+            // an exactly coincident neighbour (rare): coincident agents separate
+            // along x, ordered by id, on top of the kernel's other pushes
+            const auto fromCoincident = [&](std::uint32_t j, float dx, float dy, float dz) {
+              if (j == k || dx != 0.0f || dy != 0.0f || dz != 0.0f) return;
+              push.x() += (s.id[i] < s.id[order[j]] ? -0.5f : 0.5f) * md;
+              pushed = true;
+            };
+            if (sameCell) {
+              const std::size_t c = grid_.cellOfPoint(i);
+              for (std::uint32_t j = grid_.cellBegin(c); j < grid_.cellEnd(c); ++j) {
+                fromCoincident(j, sx[j] - sx[k], sy[j] - sy[k], sz[j] - sz[k]);
+              }
+            } else {
+              grid_.forEachNeighbor(
+                  sx[k], sy[k], sz[k], 0.0f,
+                  [&](std::uint32_t j, float dx, float dy, float dz, float) { fromCoincident(j, dx, dy, dz); });
+            }
+          }
+          movedFlag_[k] = pushed ? 1 : 0;
+          next_.id[k] = s.id[i];
+          settle(k, Vec3(sx[k], sy[k], sz[k]) + push);
+          next_.vx[k] = vx_[i];
+          next_.vy[k] = vy_[i];
+          next_.vz[k] = vz_[i];
+        });
+      }
       std::vector<std::size_t>& counts = movedCounts_;
       counts.assign(static_cast<std::size_t>(chunkCount(n)), 0);
       parallelChunks(n, [&](std::size_t first, std::size_t last, int chunk) {
@@ -383,12 +436,12 @@ class FieldModel final : public Model {
   FieldParams p_;
   Aabb domain_;
   GridSpec costSpec_, noiseSpec_;
-  Grid3<float> clearanceSdf_;  // obstacles' signed distance on the finer grid
+  Grid3<float> clearanceSdf_;           // obstacles' signed distance on the finer grid
   std::vector<std::uint8_t> clearFar_;  // per clearance cell: 1 = no clearance needed anywhere in it
-  FastMarchingInput fmmIn_;   // |∇C| per cost cell (inf inside obstacles) and the goal cells
-  Grid3<Vec3> global_;       // V_g (eq. 8)
-  Grid3<Vec3> noise_;        // ∇×N (eq. 1), or plain Perlin for the baseline
-  Grid3<Vec3> combined_;     // noise_ + V_g on the noise grid (eq. 9)
+  FastMarchingInput fmmIn_;             // |∇C| per cost cell (inf inside obstacles) and the goal cells
+  Grid3<Vec3> global_;                  // V_g (eq. 8)
+  Grid3<Vec3> noise_;                   // ∇×N (eq. 1), or plain Perlin for the baseline
+  Grid3<Vec3> combined_;                // noise_ + V_g on the noise grid (eq. 9)
   bool hasGoals_ = false, dynamicGoals_ = false, hasObstacles_ = false, combinedOk_ = false;
   float radius_ = 0.0f;
   std::vector<Vec3d> solvedCenters_;
@@ -401,6 +454,8 @@ class FieldModel final : public Model {
   UniformGrid grid_;
   std::vector<float> nx_, ny_, nz_, vx_, vy_, vz_;
   std::vector<std::uint8_t> movedFlag_;
+  std::vector<float> pushX_, pushY_, pushZ_;  // MDE pushes per sorted agent (same_cell)
+  std::vector<std::int32_t> hits_;
   std::vector<std::size_t> movedCounts_;  // per chunk
   SwarmState next_;
 };
@@ -480,8 +535,8 @@ FieldParams readFieldParams(JsonReader& r, const ModelContext& context) {
   for (JsonReader& g : r.objectArray("goals", false, 0)) p.goals.push_back(readGoal(g));
   p.minDistance = r.number("min_distance", p.minDistance, Range::nonNegative());
   p.agentRadius = r.number("agent_radius", 0.5 * p.minDistance, Range::nonNegative());
-  p.mdePairs = r.choice("mde_pairs", "neighbours", {"neighbours", "same_cell"}) == "same_cell" ? MdePairs::kSameCell
-                                                                                               : MdePairs::kNeighbours;
+  p.mdePairs = r.choice("mde_pairs", "same_cell", {"same_cell", "neighbours"}) == "same_cell" ? MdePairs::kSameCell
+                                                                                              : MdePairs::kNeighbours;
   if (r.has("phototaxis")) {
     JsonReader ph = r.object("phototaxis", false);
     p.phototaxis = true;

@@ -60,7 +60,7 @@ struct FieldParams {
   std::vector<GoalSpec> goals;
   double minDistance = 0.0;                 // MDE threshold, m (0: off)
   double agentRadius = 0.0;                 // clearance kept from obstacles, m (default: min_distance / 2)
-  MdePairs mdePairs = MdePairs::kNeighbours;
+  MdePairs mdePairs = MdePairs::kSameCell;
   bool phototaxis = false;
   Vec3d light = Vec3d::Zero();              // m
   double phototaxisProbability = 0.0;       // per step
