@@ -2,13 +2,17 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <ostream>
 
 #include "core/error.hpp"
 #include "core/parallel.hpp"
+#include "core/rng.hpp"
 #include "io/scenario.hpp"
+#include "orca/orca.hpp"
 #include "run.hpp"
+#include "spatial/uniform_grid.hpp"
 
 namespace swarmsim {
 
@@ -60,8 +64,9 @@ void printTable1(const std::vector<BenchRow>& rows, std::ostream& out) {
       if (!info.contains("t_distance")) continue;
       if (!header) {
         out << "\nTable 1 columns (field model):\n";
-        std::snprintf(line, sizeof line, "%-20s %9s %6s %6s %5s %-13s %10s %8s %8s %8s %10s %7s\n", "scenario", "agents",
-                      "scale", "gain", "s0", "cost grid", "distance_s", "cost_s", "fmm_s", "noise_s", "steps/s", "MDE_%");
+        std::snprintf(line, sizeof line, "%-20s %9s %6s %6s %5s %-13s %10s %8s %8s %8s %10s %7s\n", "scenario",
+                      "agents", "scale", "gain", "s0", "cost grid", "distance_s", "cost_s", "fmm_s", "noise_s",
+                      "steps/s", "MDE_%");
         out << line;
         header = true;
       }
@@ -76,11 +81,148 @@ void printTable1(const std::vector<BenchRow>& rows, std::ostream& out) {
   }
 }
 
+// orca-100k: the ORCA solver alone (lib/orca, docs/orca.md), no model. 100,000
+// agents on a cubic lattice of spacing 4 m (47 per side, the top layer partly
+// filled), at rest, radius 1.5 m, maxNeighbors 10, neighborDistance 15 m, both
+// time horizons 10 s, maxSpeed 2 m/s, dt 0.25 s; each flies at maxSpeed towards
+// its own random goal in the cube (AgentRng, seed 1). A step bins the agents on
+// a UniformGrid (minCell = neighborDistance, as a model would; timed apart as
+// grid_ms), solves, and moves them. Rows: steps/s and ns/agent-step of
+// neighbours + ORCA (medians over all timed steps of all repetitions).
+// --agents N puts N agents on the same lattice; --set does not apply.
+constexpr const char* kOrcaCase = "orca-100k";
+
+void runOrcaBench(const BenchOptions& options, const std::vector<std::int64_t>& agentsList,
+                  const std::vector<int>& threadList, std::ostream& out, bool& headerDone,
+                  std::vector<BenchRow>& rows) {
+  orca::Params params;
+  params.radius = 1.5f;
+  params.maxNeighbors = 10;
+  params.neighborDistance = 15.0f;
+  params.timeHorizon = 10.0f;
+  params.timeHorizonObstacle = 10.0f;
+  params.maxSpeed = 2.0f;
+  const float dt = 0.25f, spacing = 4.0f;
+  const std::int64_t steps = options.frames > 0 ? options.frames : 10;
+  for (const std::int64_t requested : agentsList) {
+    const auto n = static_cast<std::size_t>(requested > 0 ? requested : 100000);
+    auto side = static_cast<std::size_t>(std::cbrt(static_cast<double>(n)));
+    while (side * side * side < n) ++side;
+    const float extent = spacing * static_cast<float>(side - 1);
+    for (const int threads : threadList) {
+      setThreadCount(threads);
+      std::vector<double> pre, neighbours, lp, grid, total;
+      std::size_t infeasible = 0;
+      for (int r = 0; r < std::max(1, options.repeat); ++r) {
+        const auto t0 = Clock::now();
+        // state in the grid's order after each step (x, v, goal move together)
+        std::vector<float> x(n), y(n), z(n), vx(n, 0.0f), vy(n, 0.0f), vz(n, 0.0f), gx(n), gy(n), gz(n);
+        for (std::size_t i = 0; i < n; ++i) {
+          x[i] = spacing * static_cast<float>(i % side);
+          y[i] = spacing * static_cast<float>((i / side) % side);
+          z[i] = spacing * static_cast<float>(i / (side * side));
+          AgentRng rng(1, 0, static_cast<std::uint32_t>(i), RngPurpose::kSpawnPosition);
+          gx[i] = rng.uniform(0.0f, extent);
+          gy[i] = rng.uniform(0.0f, extent);
+          gz[i] = rng.uniform(0.0f, extent);
+        }
+        std::vector<float> px(n), py(n), pz(n), ox(n), oy(n), oz(n), tmp;
+        UniformGrid uniformGrid;
+        orca::Solver solver;
+        pre.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+        for (std::int64_t s = 0; s <= steps; ++s) {  // step 0: warm-up, sizes the scratch buffers
+          const auto g0 = Clock::now();
+          // as a model does: cells as the k-nearest search wants them, so the solver searches this grid
+          uniformGrid.build(x.data(), y.data(), z.data(), n, solver.suggestedCell(params));
+          for (auto* v : {&vx, &vy, &vz, &gx, &gy, &gz}) {
+            uniformGrid.gather(*v, tmp);
+            v->swap(tmp);
+          }
+          const double g = std::chrono::duration<double>(Clock::now() - g0).count();
+          const float* sx = uniformGrid.sortedX().data();
+          const float* sy = uniformGrid.sortedY().data();
+          const float* sz = uniformGrid.sortedZ().data();
+          parallelFor(n, [&](std::size_t k) {
+            const float dx = gx[k] - sx[k], dy = gy[k] - sy[k], dz = gz[k] - sz[k];
+            const float d = std::sqrt(dx * dx + dy * dy + dz * dz);
+            const float f = d > 0.0f ? std::min(params.maxSpeed, d / dt) / d : 0.0f;
+            px[k] = dx * f;
+            py[k] = dy * f;
+            pz[k] = dz * f;
+          });
+          solver.solve(uniformGrid, vx.data(), vy.data(), vz.data(), px.data(), py.data(), pz.data(), params, {}, dt,
+                       ox.data(), oy.data(), oz.data());
+          parallelFor(n, [&](std::size_t k) {
+            x[k] = sx[k] + ox[k] * dt;
+            y[k] = sy[k] + oy[k] * dt;
+            z[k] = sz[k] + oz[k] * dt;
+          });
+          vx.swap(ox);
+          vy.swap(oy);
+          vz.swap(oz);
+          if (s == 0) continue;
+          neighbours.push_back(solver.neighbourSeconds());
+          lp.push_back(solver.lpSeconds());
+          total.push_back(solver.neighbourSeconds() + solver.lpSeconds());
+          grid.push_back(g);
+          infeasible = solver.infeasibleCount();
+        }
+      }
+      BenchRow row;
+      row.scenario = kOrcaCase;
+      row.model = "orca";
+      row.agents = static_cast<std::int64_t>(n);
+      row.threads = threads;
+      row.preprocessSeconds = median(pre);
+      row.stepsPerSecond = 1.0 / median(total);
+      row.nsPerAgentStep = 1e9 / (row.stepsPerSecond * static_cast<double>(n));
+      row.steps = steps;
+      row.modelInfo = Json::array({Json{{"neighbours_ms", 1e3 * median(neighbours)},
+                                        {"orca_ms", 1e3 * median(lp)},
+                                        {"grid_ms", 1e3 * median(grid)},
+                                        {"infeasible", infeasible},
+                                        {"swarm", "agents"},
+                                        {"agents", row.agents}}});
+      rows.push_back(row);
+      char line[256];
+      if (options.json) {
+        Json j = {{"scenario", row.scenario},
+                  {"model", row.model},
+                  {"agents", row.agents},
+                  {"threads", row.threads},
+                  {"preprocess_s", row.preprocessSeconds},
+                  {"steps_per_s", row.stepsPerSecond},
+                  {"ns_per_agent_step", row.nsPerAgentStep},
+                  {"steps", row.steps},
+                  {"repeat", options.repeat},
+                  {"model_info", row.modelInfo}};
+        out << j.dump() << "\n";
+      } else {
+        if (!headerDone) {
+          std::snprintf(line, sizeof line, "%-24s %-10s %10s %7s %13s %12s %14s\n", "scenario", "model", "agents",
+                        "threads", "preprocess_s", "steps/s", "ns/agent-step");
+          out << line;
+          headerDone = true;
+        }
+        std::snprintf(line, sizeof line, "%-24s %-10s %10lld %7d %13.4f %12.2f %14.1f\n", row.scenario.c_str(),
+                      row.model.c_str(), static_cast<long long>(row.agents), row.threads, row.preprocessSeconds,
+                      row.stepsPerSecond, row.nsPerAgentStep);
+        out << line;
+        std::snprintf(line, sizeof line, "    agents: grid_ms=%.4g infeasible=%zu neighbours_ms=%.4g orca_ms=%.4g\n",
+                      1e3 * median(grid), infeasible, 1e3 * median(neighbours), 1e3 * median(lp));
+        out << line;
+      }
+      out.flush();
+    }
+  }
+}
+
 }  // namespace
 
 std::vector<std::string> builtinBenchCases() {
   std::vector<std::string> names;
   for (const auto& c : kCases) names.emplace_back(c.name);
+  names.emplace_back(kOrcaCase);
   return names;
 }
 
@@ -145,11 +287,16 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
         rows.push_back(row);
         char line[256];
         if (options.json) {
-          Json j = {{"scenario", row.scenario},         {"model", row.model},
-                    {"agents", row.agents},             {"threads", row.threads},
-                    {"preprocess_s", row.preprocessSeconds}, {"steps_per_s", row.stepsPerSecond},
-                    {"ns_per_agent_step", row.nsPerAgentStep}, {"steps", row.steps},
-                    {"repeat", options.repeat}, {"model_info", row.modelInfo}};
+          Json j = {{"scenario", row.scenario},
+                    {"model", row.model},
+                    {"agents", row.agents},
+                    {"threads", row.threads},
+                    {"preprocess_s", row.preprocessSeconds},
+                    {"steps_per_s", row.stepsPerSecond},
+                    {"ns_per_agent_step", row.nsPerAgentStep},
+                    {"steps", row.steps},
+                    {"repeat", options.repeat},
+                    {"model_info", row.modelInfo}};
           out << j.dump() << "\n";
         } else {
           if (!headerDone) {
@@ -185,6 +332,7 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
       }
     }
   }
+  if (options.scenarios.empty()) runOrcaBench(options, agentsList, threadList, out, headerDone, rows);
   if (!options.json) printTable1(rows, out);
   return rows;
 }

@@ -132,8 +132,9 @@ RunResult runScenario(const Scenario& scenario, const RunOptions& options) {
   std::vector<std::vector<std::string>> statNames;
   for (std::size_t i = 0; i < scenario.swarms.size(); ++i) statNames.push_back(sim.model(i).statNames());
   TrajectoryWriter writer(result.path, recorded, sim.swarms(), statNames, options.force);
-  std::vector<std::vector<double>> stats(statNames.size());
-  for (std::size_t i = 0; i < stats.size(); ++i) stats[i].assign(statNames[i].size(), 0.0);  // frame 0: no step yet
+  // frame 0: no step yet; each model says what its statistics are then (0, or NaN for "not computed")
+  std::vector<std::vector<double>> stats;
+  sim.takeFrameStats(stats);
   writer.writeFrame(sim.time(), sim.swarms(), stats);
 
   const bool tty = isatty(STDERR_FILENO) != 0;

@@ -17,6 +17,7 @@ enum class RngPurpose : std::uint32_t {
   kJitter = 3,
   kNoise = 4,
   kPhototaxis = 5,
+  kEscape = 6,
 };
 
 namespace detail {

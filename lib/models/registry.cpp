@@ -1,5 +1,6 @@
 // The one place models are registered: one line per model.
 #include "models/boids/boids.hpp"
+#include "models/bswarm/bswarm.hpp"
 #include "models/field/field.hpp"
 #include "models/model.hpp"
 
@@ -9,6 +10,7 @@ const std::vector<ModelEntry>& modelRegistry() {
   static const std::vector<ModelEntry> entries = {
       {"boids", "three-zone boids (repulsion, alignment, attraction), blog2018", &parseBoids},
       {"field", "curl noise + fast-marching cost field with MDE, wang2014", &parseField},
+      {"bswarm", "zonal forces + friction + stimuli + curl noise, ORCA collision avoidance, wang2015", &parseBswarm},
   };
   return entries;
 }

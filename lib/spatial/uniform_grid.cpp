@@ -15,7 +15,8 @@ void UniformGrid::build(const float* x, const float* y, const float* z, std::siz
   // bounding box: per-chunk min/max, then combined (exact, so order-free)
   constexpr float kBig = std::numeric_limits<float>::max();
   const int chunks = chunkCount(n);
-  std::vector<std::array<float, 7>> part(static_cast<std::size_t>(chunks));
+  std::vector<std::array<float, 7>>& part = bboxParts_;  // kept: no allocation per step
+  part.resize(static_cast<std::size_t>(chunks));
   parallelChunks(n, [&](std::size_t first, std::size_t last, int t) {
     std::array<float, 7> r = {kBig, kBig, kBig, -kBig, -kBig, -kBig, 0.0f};  // lo xyz, hi xyz, any NaN
     for (std::size_t i = first; i < last; ++i) {
@@ -68,8 +69,8 @@ void UniformGrid::build(const float* x, const float* y, const float* z, std::siz
   const std::size_t ncell = static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2];
   cell_.resize(n);
   parallelFor(n, [&](std::size_t i) {
-    const std::size_t c = (static_cast<std::size_t>(cellCoord(z[i], 2)) * dims_[1] + cellCoord(y[i], 1)) * dims_[0] +
-                          cellCoord(x[i], 0);
+    const std::size_t c =
+        (static_cast<std::size_t>(cellCoord(z[i], 2)) * dims_[1] + cellCoord(y[i], 1)) * dims_[0] + cellCoord(x[i], 0);
     cell_[i] = static_cast<std::uint32_t>(c);
   });
   // counting sort, stable in point index

@@ -10,6 +10,7 @@
 // one (y, z) row of the query's neighbourhood are one contiguous range of the
 // sorted arrays. The visit order is deterministic (cell order, then point index).
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -148,11 +149,12 @@ class UniformGrid {
   double origin_[3] = {0, 0, 0};
   double inv_[3] = {1, 1, 1};  // 1 / cell edge per axis
   int dims_[3] = {1, 1, 1};
-  std::vector<std::uint32_t> cell_;    // cell of each point (n)
-  std::vector<std::uint32_t> start_;   // first sorted position of each cell (cells + 1)
-  std::vector<std::uint32_t> order_;   // sorted position -> point index (n)
-  std::vector<std::uint32_t> cursor_;  // scratch for the counting sort (cells)
-  std::vector<float> sx_, sy_, sz_;    // positions in sorted order (n)
+  std::vector<std::uint32_t> cell_;              // cell of each point (n)
+  std::vector<std::uint32_t> start_;             // first sorted position of each cell (cells + 1)
+  std::vector<std::uint32_t> order_;             // sorted position -> point index (n)
+  std::vector<std::uint32_t> cursor_;            // scratch for the counting sort (cells)
+  std::vector<float> sx_, sy_, sz_;              // positions in sorted order (n)
+  std::vector<std::array<float, 7>> bboxParts_;  // per-chunk bounding boxes (build scratch)
 };
 
 // The cell-batched neighbour loop: for every sorted point k of `grid`, in

@@ -1,0 +1,628 @@
+#include "models/bswarm/bswarm.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "core/parallel.hpp"
+#include "core/rng.hpp"
+#include "fields/curl_noise.hpp"
+#include "fields/grid3.hpp"
+#include "geometry/obstacles.hpp"
+#include "geometry/signed_distance.hpp"
+#include "models/bswarm/interaction.hpp"
+#include "orca/orca.hpp"
+#include "spatial/uniform_grid.hpp"
+
+namespace swarmsim {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+constexpr double kPi = 3.14159265358979323846;
+
+std::string dimsText(const std::array<int, 3>& n) {
+  return std::to_string(n[0]) + "x" + std::to_string(n[1]) + "x" + std::to_string(n[2]);
+}
+
+// three integers in [lo, hi] (absent: zeros)
+std::array<int, 3> readCells(JsonReader& r, const std::string& key, int lo, int hi) {
+  const Json* v = r.raw(key);
+  if (!v) return {0, 0, 0};
+  const std::string expected = "an array of 3 integers in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+  if (!v->is_array() || v->size() != 3) r.failExpected(key, expected, *v);
+  std::array<int, 3> out{};
+  for (std::size_t a = 0; a < 3; ++a) {
+    const Json& c = (*v)[a];
+    if (!c.is_number_integer() || c.get<long long>() < lo || c.get<long long>() > hi) r.failExpected(key, expected, *v);
+    out[a] = static_cast<int>(c.get<long long>());
+  }
+  return out;
+}
+
+// cells covering the domain with edges of about `edge`, each axis in [4, 256], at most maxCells
+std::array<int, 3> cellsFor(const Aabb& dom, double edge, double maxCells) {
+  std::array<int, 3> n{};
+  double factor = 1.0;
+  for (;;) {
+    double total = 1.0;
+    for (int a = 0; a < 3; ++a) {
+      n[a] = std::clamp(static_cast<int>(std::ceil(dom.extent()[a] / (edge * factor))), 4, 256);
+      total *= n[a];
+    }
+    if (total <= maxCells) return n;
+    factor *= 1.05;
+  }
+}
+
+Keyed3 readPath(JsonReader& r, const char* what) {
+  Keyed3 path;
+  std::vector<JsonReader> keys = r.objectArray("keyframes", false, 0);
+  for (std::size_t i = 0; i < keys.size(); ++i) {
+    const double t = keys[i].requireNumber("time", Range::nonNegative());
+    if (!path.times.empty() && !(t > path.times.back())) {
+      keys[i].failExpected("time", "a time later than the previous keyframe's", t);
+    }
+    path.times.push_back(t);
+    path.values.push_back(keys[i].requireVec3("center"));
+    keys[i].finish();
+  }
+  if (keys.empty()) {
+    path.times.push_back(0.0);
+    path.values.push_back(r.requireVec3("center"));
+  } else if (r.has("center")) {
+    r.fail("center", std::string("give either center or keyframes for ") + what + ", not both");
+  }
+  return path;
+}
+
+StimulusSpec::Kind readKind(JsonReader& r) {
+  const std::string type = r.choice("type", "", {"predator", "attractor"});
+  if (type.empty()) r.failMissing("type", "\"predator\" (escape) or \"attractor\" (pursuit)");
+  return type == "predator" ? StimulusSpec::Kind::kPredator : StimulusSpec::Kind::kAttractor;
+}
+
+Vec3d readAxis(JsonReader& r, const std::string& key, const Vec3d& fallback) {
+  const Vec3d a = r.vec3(key, fallback);
+  if (!(a.norm() > 0.0)) r.fail(key, "expected a non-zero vector");
+  return a.normalized();
+}
+
+// the parameters a schedule may set, by their scenario names
+struct DynamicField {
+  const char* name;
+  double BswarmDynamic::*field;
+  Range range;
+};
+const std::vector<DynamicField>& dynamicFields() {
+  static const std::vector<DynamicField> fields = {
+      {"gamma", &BswarmDynamic::gamma, Range::nonNegative()},
+      {"gain", &BswarmDynamic::gain, Range::nonNegative()},
+      {"lambda_rep", &BswarmDynamic::lambdaRep, Range::nonNegative()},
+      {"lambda_ali", &BswarmDynamic::lambdaAli, Range::nonNegative()},
+      {"lambda_att", &BswarmDynamic::lambdaAtt, Range::nonNegative()},
+      {"r_rep", &BswarmDynamic::rRep, Range::positive()},
+      {"r_ali", &BswarmDynamic::rAli, Range::positive()},
+      {"r_att", &BswarmDynamic::rAtt, Range::positive()},
+      {"lambda_res", &BswarmDynamic::lambdaRes, Range::nonNegative()},
+      {"r_res", &BswarmDynamic::rRes, Range::nonNegative()},
+  };
+  return fields;
+}
+
+// rotate v about the unit axis n by angle (radians), Rodrigues
+Vec3 rotate(const Vec3& v, const Vec3& n, float angle) {
+  const float c = std::cos(angle), s = std::sin(angle);
+  return v * c + n.cross(v) * s + n * (n.dot(v) * (1.0f - c));
+}
+
+class BswarmConfig final : public ModelConfig {
+ public:
+  explicit BswarmConfig(const BswarmParams& p) : p_(p) {}
+  std::unique_ptr<Model> build(const World& world) const override { return makeBswarm(p_, world); }
+
+ private:
+  BswarmParams p_;
+};
+
+class BswarmModel final : public Model {
+ public:
+  BswarmModel(const BswarmParams& p, const World& world) : p_(p), domain_(world.domain) {
+    const Obstacles& obs = *world.obstacles;
+    const auto t0 = Clock::now();
+    // distance to obstacles and domain walls, for ORCA's obstacle constraints
+    sdfSpec_ = GridSpec::covering(
+        domain_.min, domain_.max,
+        p_.sdfCells[0] > 0 ? p_.sdfCells : cellsFor(domain_, domain_.extent().maxCoeff() / 128.0, 4e6));
+    sdf_ = withWalls(signedDistance(obs, sdfSpec_));
+    tDistance_ = since(t0);
+
+    const auto t1 = Clock::now();
+    if (p_.noise == BswarmNoise::kCurl || p_.noise == BswarmNoise::kPerlin) {
+      NoiseParams np;
+      np.scale = p_.scale;
+      np.gain = 1.0;  // the (scheduled) gain multiplies the sampled field
+      np.seeds = p_.seeds;
+      np.unit = p_.noiseUnit;  // scale: lattice cells per noise unit
+      np.d0 = 0.5 * p_.noiseUnit / p_.scale;
+      // a grid with 3 samples per lattice cell when it fits (at most 256 per axis and 8 million
+      // cells); otherwise (fine noise in a large domain) the noise is evaluated at each insect
+      const double edge = p_.noiseUnit / (3.0 * p_.scale);
+      double cells = 1.0;
+      bool fits = true;
+      for (int a = 0; a < 3; ++a) {
+        const double na = std::ceil(domain_.extent()[a] / edge);
+        fits = fits && na <= 256.0;
+        cells *= na;
+      }
+      direct_ = p_.noiseCells[0] == 0 && !(fits && cells <= 8e6);
+      if (direct_) {
+        potential_ = std::make_unique<NoisePotential>(np);
+        step_ = 0.1 * edge;  // central differences of the potential for the curl
+      } else {
+        noiseSpec_ = GridSpec::covering(domain_.min, domain_.max,
+                                        p_.noiseCells[0] > 0 ? p_.noiseCells : cellsFor(domain_, edge, 8e6));
+        if (p_.noise == BswarmNoise::kCurl) {
+          const Grid3<float> boundary = withWalls(signedDistance(obs, noiseSpec_));
+          noise_ = curl(noisePotential(noiseSpec_, np, &boundary));
+        } else {
+          noise_ = perlinVelocity(noiseSpec_, np);
+        }
+      }
+    }
+    tNoise_ = since(t1);
+
+    orcaParams_.radius = static_cast<float>(p_.radius);
+    orcaParams_.neighborDistance = static_cast<float>(p_.neighborDistance);
+    orcaParams_.maxNeighbors = p_.maxNeighbors;
+    orcaParams_.timeHorizon = static_cast<float>(p_.timeHorizon);
+    orcaParams_.timeHorizonObstacle = static_cast<float>(p_.timeHorizonObstacle);
+    orcaParams_.maxSpeed = static_cast<float>(p_.maxSpeed);
+    orcaObstacles_.sdf = &sdf_;
+  }
+
+  std::vector<std::string> statNames() const override {
+    return {"polarisation", "stimulus_distance", "infeasible_fraction"};
+  }
+
+  void takeFrameStats(std::vector<double>& values) override {
+    values = {
+        lastPolarisation_, lastStimulusDistance_,
+        frameAgentSteps_ > 0 ? static_cast<double>(frameInfeasible_) / static_cast<double>(frameAgentSteps_) : 0.0};
+    frameInfeasible_ = frameAgentSteps_ = 0;
+  }
+
+  Json benchInfo() const override {
+    const char* noise = p_.noise == BswarmNoise::kCurl     ? "curl"
+                        : p_.noise == BswarmNoise::kPerlin ? "perlin"
+                        : p_.noise == BswarmNoise::kWhite  ? "white"
+                                                           : "gaussian";
+    const double steps = static_cast<double>(std::max<std::size_t>(1, totalAgentSteps_));
+    return {{"noise", noise},
+            {"noise_grid", direct_                                                              ? "direct"
+                           : p_.noise == BswarmNoise::kCurl || p_.noise == BswarmNoise::kPerlin ? dimsText(noiseSpec_.n)
+                                                                                                : "-"},
+            {"sdf_grid", dimsText(sdfSpec_.n)},
+            {"t_distance", tDistance_},
+            {"t_noise", tNoise_},
+            {"theta", p_.theta},
+            {"ns_grid", 1e9 * tGrid_ / steps},
+            {"ns_forces", 1e9 * tForces_ / steps},
+            {"ns_orca_neighbours", 1e9 * tOrcaNeighbours_ / steps},
+            {"ns_orca_lp", 1e9 * tOrcaLp_ / steps},
+            {"ns_orca", 1e9 * (tOrcaNeighbours_ + tOrcaLp_) / steps},
+            {"infeasible_percent", 100.0 * static_cast<double>(totalInfeasible_) / steps}};
+  }
+
+  void step(const World& world, SwarmState& s, const StepInfo& info) override {
+    const std::size_t n = s.size();
+    const double t = info.time;
+    const float dt = static_cast<float>(world.dt);
+    BswarmDynamic d = p_.dyn;
+    p_.schedule.apply(t, d);
+    d.rAli = std::max(d.rAli, d.rRep);
+    d.rAtt = std::max(d.rAtt, d.rAli);
+
+    // one grid per step: ORCA's neighbours and the interaction forces both use it
+    auto t0 = Clock::now();
+    // cells as ORCA's k-nearest search wants them, so it searches this grid rather than building its own
+    grid_.build(s.px.data(), s.py.data(), s.pz.data(), n, std::max(solver_.suggestedCell(orcaParams_), 1e-4f));
+    const auto& order = grid_.order();
+    for (auto* a : {&vx_, &vy_, &vz_, &fx_, &fy_, &fz_, &wx_, &wy_, &wz_, &ox_, &oy_, &oz_}) a->resize(n);
+    ids_.resize(n);
+    parallelFor(n, [&](std::size_t k) {
+      const std::uint32_t i = order[k];
+      vx_[k] = s.vx[i];
+      vy_[k] = s.vy[i];
+      vz_[k] = s.vz[i];
+      ids_[k] = s.id[i];
+    });
+    tGrid_ += since(t0);
+
+    // F_int (eq. 4)
+    ZoneParams zones;
+    zones.rRep = static_cast<float>(d.rRep);
+    zones.rAli = static_cast<float>(d.rAli);
+    zones.rAtt = static_cast<float>(d.rAtt);
+    zones.lambdaRep = static_cast<float>(d.lambdaRep);
+    zones.lambdaAli = static_cast<float>(d.lambdaAli);
+    zones.lambdaAtt = static_cast<float>(d.lambdaAtt);
+    t0 = Clock::now();
+    forces_.compute(grid_, vx_.data(), vy_.data(), vz_.data(), zones, static_cast<float>(p_.theta), fx_.data(),
+                    fy_.data(), fz_.data());
+    tForces_ += since(t0);
+
+    // stimuli at this time
+    stimulusCenters_.resize(p_.stimuli.size());
+    orcaObstacles_.spheres.clear();
+    for (std::size_t e = 0; e < p_.stimuli.size(); ++e) {
+      stimulusCenters_[e] = p_.stimuli[e].path.at(t).cast<float>();
+      if (p_.stimuli[e].solid && p_.stimuli[e].radius > 0.0) {
+        // its velocity over this step: ORCA avoids it in relative velocity
+        const Vec3d velocity = (p_.stimuli[e].path.at(t + world.dt) - p_.stimuli[e].path.at(t)) / world.dt;
+        orcaObstacles_.spheres.push_back(
+            {stimulusCenters_[e], static_cast<float>(p_.stimuli[e].radius), velocity.cast<float>()});
+      }
+    }
+
+    // preferred velocities: v + a dt (unit mass)
+    const float* sx = grid_.sortedX().data();
+    const float* sy = grid_.sortedY().data();
+    const float* sz = grid_.sortedZ().data();
+    const float gamma = static_cast<float>(d.gamma), gain = static_cast<float>(d.gain);
+    const float lambdaRes = static_cast<float>(d.lambdaRes), rRes = static_cast<float>(d.rRes);
+    const float thetaMin = static_cast<float>(p_.escapeAngleMin * kPi / 180.0);
+    const float thetaMax = static_cast<float>(p_.escapeAngleMax * kPi / 180.0);
+    ResponseInputs response;
+    response.lambdaRes = lambdaRes;
+    response.rRes = rRes;
+    response.stimuli = &p_.stimuli;
+    response.centers = stimulusCenters_.data();
+    response.attached = &p_.attached;
+    response.escapeAxis = p_.escapeAxis.cast<float>();
+    const bool needEscapeAngle =
+        (p_.attached.enabled && p_.attached.kind == StimulusSpec::Kind::kPredator) || hasPredator();
+    parallelFor(n, [&](std::size_t k) {
+      const Vec3 x(sx[k], sy[k], sz[k]);
+      const Vec3 v(vx_[k], vy_[k], vz_[k]);
+      Vec3 a(fx_[k], fy_[k], fz_[k]);
+      a += frictionForce(v, gamma);
+      if (lambdaRes > 0.0f && (!p_.stimuli.empty() || p_.attached.enabled)) {
+        // each insect escapes along its own fixed rotation of the away direction ("a determined direction")
+        float theta = 0.0f;
+        if (needEscapeAngle) {
+          AgentRng rng(world.seed, 0, ids_[k], RngPurpose::kEscape, info.swarmIndex);
+          theta = rng.uniform(thetaMin, thetaMax);
+        }
+        a += responseForce(response, x, v, theta);
+      }
+      switch (p_.noise) {
+        case BswarmNoise::kCurl:
+        case BswarmNoise::kPerlin:
+          a += (direct_ ? noiseAt(x) : noise_.sample(x)) * gain;
+          break;
+        case BswarmNoise::kWhite: {
+          AgentRng rng(world.seed, info.step, ids_[k], RngPurpose::kNoise, info.swarmIndex);
+          a += Vec3(rng.uniform(-1.0f, 1.0f), rng.uniform(-1.0f, 1.0f), rng.uniform(-1.0f, 1.0f)) * gain;
+          break;
+        }
+        case BswarmNoise::kGaussian: {
+          AgentRng rng(world.seed, info.step, ids_[k], RngPurpose::kNoise, info.swarmIndex);
+          a += rng.normal3() * gain;
+          break;
+        }
+      }
+      const Vec3 pref = v + a * dt;
+      wx_[k] = pref.x();
+      wy_[k] = pref.y();
+      wz_[k] = pref.z();
+    });
+
+    // ORCA: collision-free velocities closest to the preferred ones
+    solver_.solve(grid_, vx_.data(), vy_.data(), vz_.data(), wx_.data(), wy_.data(), wz_.data(), orcaParams_,
+                  orcaObstacles_, dt, ox_.data(), oy_.data(), oz_.data());
+    tOrcaNeighbours_ += solver_.neighbourSeconds();
+    tOrcaLp_ += solver_.lpSeconds();
+    frameInfeasible_ += solver_.infeasibleCount();
+    totalInfeasible_ += solver_.infeasibleCount();
+
+    // move; the state is rewritten in grid order (spatial sorting)
+    next_.resizeStorage(n);
+    const Vec3 lo = domain_.min.cast<float>(), hi = domain_.max.cast<float>();
+    parallelFor(n, [&](std::size_t k) {
+      const Vec3 v(ox_[k], oy_[k], oz_[k]);
+      const Vec3 x = (Vec3(sx[k], sy[k], sz[k]) + v * dt).cwiseMax(lo).cwiseMin(hi);
+      next_.px[k] = x.x();
+      next_.py[k] = x.y();
+      next_.pz[k] = x.z();
+      next_.vx[k] = v.x();
+      next_.vy[k] = v.y();
+      next_.vz[k] = v.z();
+      next_.id[k] = ids_[k];
+    });
+    s.swapStorage(next_);
+
+    lastPolarisation_ = polarisation(s.vx.data(), s.vy.data(), s.vz.data(), n);
+    lastStimulusDistance_ = nearestToStimulus(s);
+    frameAgentSteps_ += n;
+    totalAgentSteps_ += n;
+  }
+
+ private:
+  // the noise at x without a grid: Perlin directly, or the curl of the blended
+  // potential by central differences (the blend uses the ORCA distance grid)
+  Vec3 noiseAt(const Vec3& x) const {
+    const Vec3d p = x.cast<double>();
+    if (p_.noise == BswarmNoise::kPerlin) return potential_->noise(p).cast<float>();
+    Vec3d d[3];  // d[a] = ∂N/∂x_a
+    for (int a = 0; a < 3; ++a) {
+      Vec3d e = Vec3d::Zero();
+      e[a] = step_;
+      d[a] = ((*potential_)(p + e, &sdf_) - (*potential_)(p - e, &sdf_)) / (2.0 * step_);
+    }
+    return Vec3d(d[1].z() - d[2].y(), d[2].x() - d[0].z(), d[0].y() - d[1].x()).cast<float>();
+  }
+
+  bool hasPredator() const {
+    for (const auto& st : p_.stimuli) {
+      if (st.kind == StimulusSpec::Kind::kPredator) return true;
+    }
+    return false;
+  }
+
+  // min(distance to the obstacles, distance to the domain walls) at the cell centres
+  Grid3<float> withWalls(Grid3<float> g) const {
+    parallelFor(g.data.size(), [&](std::size_t c) {
+      const Vec3d p = g.spec.centerOfIndex(c);
+      const double wall = std::min((p - domain_.min).minCoeff(), (domain_.max - p).minCoeff());
+      g.data[c] = std::min(g.data[c], static_cast<float>(wall));
+    });
+    return g;
+  }
+
+  // distance from the first stimulus's surface to the nearest insect (NaN without stimuli); min is exact in any order
+  double nearestToStimulus(const SwarmState& s) const {
+    if (p_.stimuli.empty() || s.size() == 0) return std::numeric_limits<double>::quiet_NaN();
+    const Vec3 c = stimulusCenters_[0];
+    std::vector<float> part(static_cast<std::size_t>(chunkCount(s.size())), std::numeric_limits<float>::infinity());
+    parallelChunks(s.size(), [&](std::size_t first, std::size_t last, int chunk) {
+      float m = std::numeric_limits<float>::infinity();
+      for (std::size_t i = first; i < last; ++i) m = std::min(m, (s.position(i) - c).squaredNorm());
+      part[static_cast<std::size_t>(chunk)] = m;
+    });
+    const float m2 = *std::min_element(part.begin(), part.end());
+    return std::max(0.0, std::sqrt(static_cast<double>(m2)) - p_.stimuli[0].radius);
+  }
+
+  BswarmParams p_;
+  Aabb domain_;
+  GridSpec sdfSpec_, noiseSpec_;
+  Grid3<float> sdf_;     // obstacles and walls, for ORCA
+  Grid3<Vec3> noise_;    // curl noise (or Perlin) with gain 1
+  bool direct_ = false;  // no noise grid: evaluated per insect
+  std::unique_ptr<NoisePotential> potential_;
+  double step_ = 0.0;
+  orca::Params orcaParams_;
+  orca::Obstacles orcaObstacles_;
+  orca::Solver solver_;
+  InteractionForces forces_;
+  UniformGrid grid_;
+  std::vector<float> vx_, vy_, vz_, fx_, fy_, fz_, wx_, wy_, wz_, ox_, oy_, oz_;  // sorted order
+  std::vector<std::uint32_t> ids_;
+  std::vector<Vec3> stimulusCenters_;
+  SwarmState next_;
+  double tDistance_ = 0.0, tNoise_ = 0.0;
+  double tGrid_ = 0.0, tForces_ = 0.0, tOrcaNeighbours_ = 0.0, tOrcaLp_ = 0.0;
+  // before the first step: not computed
+  double lastPolarisation_ = std::numeric_limits<double>::quiet_NaN();
+  double lastStimulusDistance_ = std::numeric_limits<double>::quiet_NaN();
+  std::size_t frameInfeasible_ = 0, frameAgentSteps_ = 0, totalInfeasible_ = 0, totalAgentSteps_ = 0;
+};
+
+}  // namespace
+
+Vec3 frictionForce(const Vec3& v, float gamma) { return v * (-gamma * v.norm()); }
+
+Vec3 responseForce(const ResponseInputs& in, const Vec3& x, const Vec3& v, float theta) {
+  Vec3 a = Vec3::Zero();
+  // r̂ points from the stimulus to the insect: escape along R(n, θ) r̂, pursue along -r̂
+  const auto respond = [&](StimulusSpec::Kind kind, const Vec3& away, float weight) {
+    a += kind == StimulusSpec::Kind::kPredator ? rotate(away, in.escapeAxis, theta) * (in.lambdaRes * weight)
+                                               : away * (-in.lambdaRes * weight);
+  };
+  for (std::size_t e = 0; e < in.stimuli->size(); ++e) {
+    const StimulusSpec& st = (*in.stimuli)[e];
+    const Vec3 rel = x - in.centers[e];
+    const float dist = rel.norm();
+    const float range = st.visualRange >= 0.0 ? static_cast<float>(st.visualRange) : in.rRes;
+    // H(r_res - r_ie), r_ie to the centre of a point, to the surface of a sphere
+    if (std::max(0.0f, dist - static_cast<float>(st.radius)) > range || !(dist > 0.0f)) continue;
+    respond(st.kind, rel / dist, static_cast<float>(st.weight));
+  }
+  const AttachedStimulus& at = *in.attached;
+  if (at.enabled && static_cast<float>(at.distance) <= in.rRes) {
+    const float speed = v.norm();
+    const Vec3 heading = speed > 0.0f ? Vec3(v / speed) : Vec3(Vec3::UnitX());
+    const Vec3 ahead = rotate(heading, at.axis.cast<float>(), static_cast<float>(at.angle * kPi / 180.0));
+    respond(at.kind, -ahead, static_cast<float>(at.weight));
+  }
+  return a;
+}
+
+Vec3d Keyed3::at(double t) const {
+  if (times.size() <= 1 || t <= times.front()) return values.front();
+  if (t >= times.back()) return values.back();
+  const auto it = std::upper_bound(times.begin(), times.end(), t);
+  const std::size_t b = static_cast<std::size_t>(it - times.begin()), a = b - 1;
+  const double f = (t - times[a]) / (times[b] - times[a]);
+  return values[a] + f * (values[b] - values[a]);
+}
+
+void BswarmSchedule::apply(double t, BswarmDynamic& d) const {
+  for (const Track& tr : tracks) {
+    double v = tr.values.front();
+    if (t >= tr.times.back()) {
+      v = tr.values.back();
+    } else if (t > tr.times.front()) {
+      const auto it = std::upper_bound(tr.times.begin(), tr.times.end(), t);
+      const std::size_t b = static_cast<std::size_t>(it - tr.times.begin()), a = b - 1;
+      const double f = (t - tr.times[a]) / (tr.times[b] - tr.times[a]);
+      v = tr.values[a] + f * (tr.values[b] - tr.values[a]);
+    }
+    for (const auto& field : dynamicFields()) {
+      if (tr.name == field.name) d.*(field.field) = v;
+    }
+  }
+}
+
+double polarisation(const float* vx, const float* vy, const float* vz, std::size_t n) {
+  if (n == 0) return 0.0;
+  // fixed blocks of 4,096 agents summed in block order: the same for any thread count
+  constexpr std::size_t kBlock = 4096;
+  const std::size_t blocks = (n + kBlock - 1) / kBlock;
+  std::vector<Vec3d> part(blocks, Vec3d::Zero());
+  parallelForDynamic(blocks, 1, [&](std::size_t b) {
+    Vec3d sum = Vec3d::Zero();
+    for (std::size_t i = b * kBlock; i < std::min(n, (b + 1) * kBlock); ++i) {
+      const Vec3d v(vx[i], vy[i], vz[i]);
+      const double len = v.norm();
+      if (len > 0.0) sum += v / len;
+    }
+    part[b] = sum;
+  });
+  Vec3d total = Vec3d::Zero();
+  for (const Vec3d& p : part) total += p;
+  return total.norm() / static_cast<double>(n);
+}
+
+BswarmParams readBswarmParams(JsonReader& r, const ModelContext& context) {
+  BswarmParams p;
+  (void)context;
+  BswarmDynamic& d = p.dyn;
+  d.gamma = r.number("gamma", d.gamma, Range::nonNegative());
+  d.lambdaRep = r.number("lambda_rep", d.lambdaRep, Range::nonNegative());
+  d.lambdaAli = r.number("lambda_ali", d.lambdaAli, Range::nonNegative());
+  d.lambdaAtt = r.number("lambda_att", d.lambdaAtt, Range::nonNegative());
+  d.lambdaRes = r.number("lambda_res", d.lambdaRes, Range::nonNegative());
+  d.rRes = r.number("r_res", d.rRes, Range::nonNegative());
+  // radii: absolute (r_ali, r_att) or, as in the paper's Table 1, differences (dr_ali = r_ali - r_rep, dr_att = r_att -
+  // r_ali)
+  d.rRep = r.number("r_rep", d.rRep, Range::positive());
+  if (r.has("r_ali") && r.has("dr_ali")) r.fail("dr_ali", "give r_ali (absolute) or dr_ali (r_ali - r_rep), not both");
+  if (r.has("r_att") && r.has("dr_att")) r.fail("dr_att", "give r_att (absolute) or dr_att (r_att - r_ali), not both");
+  if (r.has("dr_ali")) {
+    d.rAli = d.rRep + r.requireNumber("dr_ali", Range::nonNegative());
+  } else {
+    d.rAli = r.number("r_ali", d.rRep, Range::positive());
+    if (d.rAli < d.rRep) r.fail("r_ali", "expected r_ali >= r_rep (" + std::to_string(d.rRep) + ")");
+  }
+  if (r.has("dr_att")) {
+    d.rAtt = d.rAli + r.requireNumber("dr_att", Range::nonNegative());
+  } else {
+    d.rAtt = r.number("r_att", std::max(d.rAtt, d.rAli), Range::positive());
+    if (d.rAtt < d.rAli) r.fail("r_att", "expected r_att >= r_ali (" + std::to_string(d.rAli) + ")");
+  }
+  r.resolve("r_ali", d.rAli);
+  r.resolve("r_att", d.rAtt);
+  {
+    JsonReader nz = r.object("noise", false);
+    const std::string type = nz.choice("type", "curl", {"curl", "perlin", "white", "gaussian"});
+    p.noise = type == "curl"     ? BswarmNoise::kCurl
+              : type == "perlin" ? BswarmNoise::kPerlin
+              : type == "white"  ? BswarmNoise::kWhite
+                                 : BswarmNoise::kGaussian;
+    p.scale = nz.number("scale", p.scale, Range::positive());
+    p.noiseUnit = nz.number("unit", p.noiseUnit, Range::positive());
+    d.gain = nz.number("gain", d.gain, Range::nonNegative());
+    const Json* seeds = nz.raw("seeds");
+    if (seeds) {
+      if (!seeds->is_array() || seeds->size() != 3) nz.failExpected("seeds", "an array of 3 integers >= 0", *seeds);
+      for (std::size_t a = 0; a < 3; ++a) {
+        if (!(*seeds)[a].is_number_unsigned()) nz.failExpected("seeds", "an array of 3 integers >= 0", *seeds);
+        p.seeds[a] = (*seeds)[a].get<std::uint64_t>();
+      }
+    }
+    p.noiseCells = readCells(nz, "cells", 2, 1024);
+    nz.finish();
+  }
+  for (JsonReader& s : r.objectArray("stimuli", false, 0)) {
+    StimulusSpec st;
+    st.kind = readKind(s);
+    st.path = readPath(s, "a stimulus");
+    st.radius = s.number("radius", 0.0, Range::nonNegative());
+    st.visualRange = s.has("visual_range") ? s.requireNumber("visual_range", Range::nonNegative()) : -1.0;
+    st.weight = s.number("weight", 1.0, Range::nonNegative());
+    st.solid = s.boolean("solid", st.kind == StimulusSpec::Kind::kPredator && st.radius > 0.0);
+    if (st.solid && !(st.radius > 0.0)) s.fail("solid", "only a sphere stimulus (radius > 0) can be solid");
+    s.finish();
+    p.stimuli.push_back(st);
+  }
+  if (r.has("attached_stimulus")) {
+    JsonReader a = r.object("attached_stimulus", false);
+    p.attached.enabled = true;
+    p.attached.kind = readKind(a);
+    p.attached.distance = a.number("distance", 1.0, Range::positive());
+    p.attached.angle = a.number("angle", 0.0, Range::closed(-180.0, 180.0));
+    p.attached.axis = readAxis(a, "axis", Vec3d::UnitZ());
+    p.attached.weight = a.number("weight", 1.0, Range::nonNegative());
+    a.finish();
+  }
+  {
+    JsonReader e = r.object("escape", false);
+    p.escapeAxis = readAxis(e, "axis", p.escapeAxis);
+    p.escapeAngleMin = e.number("angle_min", p.escapeAngleMin, Range::closed(-180.0, 180.0));
+    p.escapeAngleMax = e.number("angle_max", p.escapeAngleMax, Range::closed(-180.0, 180.0));
+    if (p.escapeAngleMax < p.escapeAngleMin) e.fail("angle_max", "expected angle_max >= angle_min");
+    e.finish();
+  }
+  {
+    JsonReader o = r.object("orca", false);
+    p.radius = o.number("radius", p.radius, Range::positive());
+    p.neighborDistance = o.number("neighbor_distance", std::max(p.neighborDistance, 4.0 * p.radius), Range::positive());
+    p.maxNeighbors = static_cast<int>(o.integer("max_neighbors", p.maxNeighbors, 0, 256));
+    p.timeHorizon = o.number("time_horizon", p.timeHorizon, Range::positive());
+    p.timeHorizonObstacle = o.number("time_horizon_obstacle", p.timeHorizonObstacle, Range::positive());
+    p.maxSpeed = o.number("max_speed", p.maxSpeed, Range::positive());
+    o.finish();
+  }
+  p.sdfCells = readCells(r, "sdf_cells", 2, 1024);
+  p.theta = r.number("far_field_theta", p.theta, Range::closed(0.0, 2.0));
+  // schedule: [{"time": t, "<param>": value, ...}, ...]; each parameter interpolates between the keys naming it
+  std::vector<JsonReader> keys = r.objectArray("schedule", false, 0);
+  double lastTime = -1.0;
+  for (JsonReader& k : keys) {
+    const double t = k.requireNumber("time", Range::nonNegative());
+    if (!(t > lastTime)) k.failExpected("time", "a time later than the previous key's", t);
+    lastTime = t;
+    bool any = false;
+    for (const auto& field : dynamicFields()) {
+      if (!k.has(field.name)) continue;
+      any = true;
+      const double v = k.requireNumber(field.name, field.range);
+      auto it = std::find_if(p.schedule.tracks.begin(), p.schedule.tracks.end(),
+                             [&](const BswarmSchedule::Track& tr) { return tr.name == field.name; });
+      if (it == p.schedule.tracks.end()) {
+        p.schedule.tracks.push_back({field.name, {}, {}});
+        it = p.schedule.tracks.end() - 1;
+      }
+      it->times.push_back(t);
+      it->values.push_back(v);
+    }
+    if (!any) k.fail("time", "a schedule key must set at least one parameter (gamma, gain, lambda_*, r_*)");
+    k.finish();
+  }
+  return p;
+}
+
+std::shared_ptr<const ModelConfig> parseBswarm(JsonReader& params, const ModelContext& context) {
+  return std::make_shared<BswarmConfig>(readBswarmParams(params, context));
+}
+
+std::unique_ptr<Model> makeBswarm(const BswarmParams& params, const World& world) {
+  return std::make_unique<BswarmModel>(params, world);
+}
+
+}  // namespace swarmsim

@@ -1,0 +1,667 @@
+#include "orca/orca.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <stdexcept>
+
+#include "core/parallel.hpp"
+#include "geometry/signed_distance.hpp"
+
+namespace swarmsim::orca {
+
+namespace {
+
+// Plain float 3-vectors for the hot loops (no expression templates, and the
+// arithmetic is exactly what is written, the same for every thread).
+struct F3 {
+  float x, y, z;
+};
+inline F3 operator+(F3 a, F3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+inline F3 operator-(F3 a, F3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+inline F3 operator*(F3 a, float s) { return {a.x * s, a.y * s, a.z * s}; }
+inline float dot(F3 a, F3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+inline F3 cross(F3 a, F3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
+inline F3 normalOf(const Plane& p) { return {p.nx, p.ny, p.nz}; }
+inline Plane makePlane(F3 n, float b) { return {n.x, n.y, n.z, b}; }
+
+// A plane counts as satisfied when violated by at most this much (m/s): keeps
+// rounding (a point computed on plane j read back as 1e-7 outside it) from
+// triggering sub-problems or a spurious infeasibility. Over a 1 s step it is 10 µm.
+constexpr float kTolerance = 1e-5f;
+
+// ---- the linear programs ---------------------------------------------------
+// Maximise closeness to pref (or, with `direction`, the component along the unit
+// vector pref) over {v : n_k . v >= b_k for the given planes, |v| <= R}.
+
+// 1-D: on the line p + t d (|d| = 1), planes [0, count).
+bool lineProgram(const Plane* planes, std::size_t count, F3 p, F3 d, float R, F3 pref, bool direction, F3& v) {
+  const float pd = dot(p, d);
+  const float disc = pd * pd + R * R - dot(p, p);
+  if (disc < 0.0f) return false;  // the line misses the speed ball
+  const float s = std::sqrt(disc);
+  float lo = -pd - s, hi = -pd + s;
+  for (std::size_t k = 0; k < count; ++k) {
+    const F3 nk = normalOf(planes[k]);
+    const float den = dot(nk, d), num = planes[k].b - dot(nk, p);  // need t * den >= num
+    if (std::fabs(den) < 1e-6f) {  // line parallel to plane k: all of it inside or all outside
+      if (num > kTolerance) return false;
+      continue;
+    }
+    const float t = num / den;
+    if (den > 0.0f) {
+      lo = std::max(lo, t);
+    } else {
+      hi = std::min(hi, t);
+    }
+    if (lo > hi + kTolerance) return false;
+  }
+  float t;
+  if (direction) {
+    t = dot(pref, d) > 0.0f ? hi : lo;
+  } else {
+    t = std::max(lo, std::min(hi, dot(pref - p, d)));
+  }
+  v = p + d * std::max(lo, t);  // lo > hi only by rounding: take lo
+  return true;
+}
+
+// 2-D: on plane i, planes [0, i).
+bool planeProgram(const Plane* planes, std::size_t i, float R, F3 pref, bool direction, F3& out) {
+  const F3 n = normalOf(planes[i]);
+  const float b = planes[i].b;
+  const float disc2 = R * R - b * b;  // squared radius of the plane's disc inside the ball
+  if (disc2 < 0.0f) return false;
+  const F3 c = n * b;  // disc centre
+  F3 v;
+  if (direction) {
+    const F3 t = pref - n * dot(pref, n);
+    const float t2 = dot(t, t);
+    v = t2 > 1e-12f ? c + t * std::sqrt(disc2 / t2) : c;
+  } else {
+    const F3 q = pref + n * (b - dot(pref, n));  // pref projected on the plane
+    const F3 e = q - c;
+    const float e2 = dot(e, e);
+    v = e2 > disc2 ? c + e * std::sqrt(disc2 / e2) : q;
+  }
+  for (std::size_t j = 0; j < i; ++j) {
+    const F3 nj = normalOf(planes[j]);
+    if (dot(nj, v) >= planes[j].b - kTolerance) continue;
+    const F3 cr = cross(n, nj);
+    const float cr2 = dot(cr, cr);
+    if (cr2 < 1e-12f) return false;  // parallel: plane j is violated on all of plane i
+    const float crl = std::sqrt(cr2);
+    const F3 d = cr * (1.0f / crl);
+    // point of the line i ∩ j: from c along e = d x n (in plane i, n_j . e = |n x n_j|)
+    const F3 p = c + cross(d, n) * ((planes[j].b - b * dot(n, nj)) / crl);
+    if (!lineProgram(planes, j, p, d, R, pref, direction, v)) return false;
+  }
+  out = v;
+  return true;
+}
+
+// 3-D: planes [0, count) in order. Returns count on success; otherwise the
+// first plane that cannot be satisfied, with v the optimum of the planes before it.
+std::size_t ballProgram(const Plane* planes, std::size_t count, float R, F3 pref, bool direction, F3& v) {
+  if (direction) {
+    v = pref * R;
+  } else {
+    const float p2 = dot(pref, pref);
+    v = p2 > R * R ? pref * (R / std::sqrt(p2)) : pref;
+  }
+  for (std::size_t i = 0; i < count; ++i) {
+    if (dot(normalOf(planes[i]), v) >= planes[i].b - kTolerance) continue;
+    const F3 before = v;
+    if (!planeProgram(planes, i, R, pref, direction, v)) {
+      v = before;
+      return i;
+    }
+  }
+  return count;
+}
+
+// The fallback: minimise the worst violation max_k (b_k - n_k . v) over the soft
+// planes [hard, count) with |v| <= R, the planes [0, hard) kept as hard
+// constraints. This is a 4-D LP in (v, violation); it is solved incrementally
+// from `begin` (v satisfies the planes before it): when plane i is violated more
+// than the worst so far, the new optimum maximises n_i . v over the velocities
+// where no earlier soft plane j is violated more than i, i.e. the half-spaces
+// (n_j - n_i) . v >= b_j - b_i, which is a 3-D LP with a direction objective.
+void leastViolation(const Plane* planes, std::size_t begin, std::size_t count, std::size_t hard, float R,
+                    Plane* projected, F3& v) {
+  float worst = 0.0f;
+  for (std::size_t i = std::max(begin, hard); i < count; ++i) {
+    const F3 ni = normalOf(planes[i]);
+    if (planes[i].b - dot(ni, v) <= worst) continue;
+    std::size_t m = 0;
+    for (std::size_t h = 0; h < hard; ++h) projected[m++] = planes[h];
+    for (std::size_t j = hard; j < i; ++j) {
+      const F3 d = normalOf(planes[j]) - ni;
+      const float l2 = dot(d, d);
+      if (l2 < 1e-10f) continue;  // same normal: j is never the worse of the two here
+      const float inv = 1.0f / std::sqrt(l2);
+      projected[m++] = makePlane(d * inv, (planes[j].b - planes[i].b) * inv);
+    }
+    F3 candidate;
+    // failure is rounding on a degenerate set: keep the previous velocity
+    if (ballProgram(projected, m, R, ni, true, candidate) == m) v = candidate;
+    worst = planes[i].b - dot(ni, v);
+  }
+}
+
+// ---- half-spaces -------------------------------------------------------------
+
+// a unit vector perpendicular to the unit vector a, odd in a (perp(-a) =
+// -perp(a)), so the two agents of a pair that both need one pick opposite ones
+F3 perpendicular(F3 a) {
+  const float ax = std::fabs(a.x), ay = std::fabs(a.y), az = std::fabs(a.z);
+  const F3 e = ax <= ay && ax <= az ? F3{1, 0, 0} : (ay <= az ? F3{0, 1, 0} : F3{0, 0, 1});
+  const F3 c = cross(a, e);  // |c|^2 = 1 - a_e^2 >= 2/3
+  return c * (1.0f / std::sqrt(dot(c, c)));
+}
+
+struct AgentConstants {
+  float R, R2;          // combined radius and its square
+  float invTau, invDt;  // 1 / time horizon, 1 / dt
+};
+
+// The ORCA half-space of agent i (sorted index ki) for neighbour j (kj): p = x_j - x_i,
+// rv = v_i - v_j. The velocity obstacle {v : |v t - p| < R for some t in [0, tau]} is the
+// cone of apex 0 around p with half-angle asin(R/|p|), cut off by the sphere of centre
+// p/tau and radius R/tau (overlapping agents: centre p/dt, radius R/dt, the whole cone).
+// u = (closest point of its boundary) - rv, n the outward normal there; agent i takes half:
+// n . v >= n . (v_i + u/2) = n . v_i + (signed distance)/2.
+Plane agentPlane(F3 p, F3 vi, F3 rv, std::uint32_t ki, std::uint32_t kj, const AgentConstants& a) {
+  const float dist2 = dot(p, p);
+  F3 n;
+  float along;  // u . n: how far rv must move along n to reach the boundary
+  if (dist2 > a.R2) {
+    const F3 w = rv - p * a.invTau;  // from the cut-off centre to rv
+    const float w2 = dot(w, w), wp = dot(w, p);
+    if (wp < 0.0f && wp * wp > a.R2 * w2) {
+      // closest to the cut-off cap: the part of the sphere between its two tangent
+      // points seen from the apex (angle between w and -p below acos(R/|p|))
+      const float wl = std::sqrt(w2);  // > 0 here
+      n = w * (1.0f / wl);
+      along = a.R * a.invTau - wl;
+    } else {
+      // closest to the cone surface, in the plane through the axis and rv
+      const float dist = std::sqrt(dist2);
+      const F3 axis = p * (1.0f / dist);
+      const float sinA = a.R / dist, cosA = std::sqrt(dist2 - a.R2) / dist;
+      const F3 q = rv - axis * dot(rv, axis);  // rv's part across the axis
+      const float q2 = dot(q, q);
+      const F3 across = q2 > 1e-20f ? q * (1.0f / std::sqrt(q2)) : perpendicular(axis);
+      n = across * cosA - axis * sinA;  // normal of the generator cosA axis + sinA across
+      along = -dot(rv, n);
+    }
+  } else {
+    // overlapping: leave the sphere of centre p/dt, radius R/dt within this step
+    const F3 w = rv - p * a.invDt;
+    const float w2 = dot(w, w);
+    if (w2 > 1e-20f) {
+      const float wl = std::sqrt(w2);
+      n = w * (1.0f / wl);
+      along = a.R * a.invDt - wl;
+    } else {
+      // at the centre: any direction is as short; move apart along -p, or for coincident
+      // agents along x, opposite ways by index
+      n = dist2 > 1e-20f ? p * (-1.0f / std::sqrt(dist2)) : F3{ki < kj ? -1.0f : 1.0f, 0.0f, 0.0f};
+      along = a.R * a.invDt;
+    }
+  }
+  return makePlane(n, dot(n, vi) + 0.5f * along);
+}
+
+// Branch-free selection on the bits: with plain selects or 0/1 blends, GCC turns some
+// floating-point operations conditional, and (they could trap) then gives up making
+// the loop branch-free, so it does not vectorise.
+inline std::uint32_t bitsOf(float f) {
+  std::uint32_t u;
+  std::memcpy(&u, &f, sizeof u);
+  return u;
+}
+inline float fromBits(std::uint32_t u) {
+  float f;
+  std::memcpy(&f, &u, sizeof f);
+  return f;
+}
+inline std::uint32_t maskOf(bool c) { return 0u - static_cast<std::uint32_t>(c); }  // all ones when c
+inline float pick(std::uint32_t mask, float x, float y) { return fromBits((mask & bitsOf(x)) | (~mask & bitsOf(y))); }
+inline float maxOf(float a, float b) { return pick(maskOf(a > b), a, b); }
+
+// agentPlane for a batch of neighbours at once, branch-free so that it vectorises (the
+// sqrt and divisions dominate otherwise): both candidates, cap and cone, are computed,
+// then one is picked. In: p and rv as six arrays of `count` (a multiple of 4, padded);
+// out: n and b in four arrays, and `degenerate` = 1 for the neighbours whose normal is
+// undefined here (rv on the cone's axis, or an overlapping pair's rv at the centre),
+// which agentPlane redoes.
+void agentPlanes(std::size_t count, const float* __restrict px, const float* __restrict py, const float* __restrict pz,
+                 const float* __restrict rx, const float* __restrict ry, const float* __restrict rz, F3 vi,
+                 const AgentConstants& a, float* __restrict nx, float* __restrict ny, float* __restrict nz,
+                 float* __restrict b, float* __restrict degenerate) {
+  constexpr float kTiny = 1e-20f;
+  const float R = a.R, R2 = a.R2, invTau = a.invTau, invDt = a.invDt;
+  for (std::size_t t = 0; t < count; ++t) {
+    const float dist2 = px[t] * px[t] + py[t] * py[t] + pz[t] * pz[t];
+    const std::uint32_t over = maskOf(!(dist2 > R2));
+    const float inv = pick(over, invDt, invTau);
+    const float wx = rx[t] - px[t] * inv, wy = ry[t] - py[t] * inv, wz = rz[t] - pz[t] * inv;
+    const float w2 = wx * wx + wy * wy + wz * wz, wp = wx * px[t] + wy * py[t] + wz * pz[t];
+    const std::uint32_t cap = over | (maskOf(wp < 0.0f) & maskOf(wp * wp > R2 * w2));
+    const float wl = std::sqrt(w2);
+    const float iw = 1.0f / maxOf(wl, kTiny);
+    const float dist = std::sqrt(dist2);
+    const float id = 1.0f / maxOf(dist, kTiny);
+    const float ax = px[t] * id, ay = py[t] * id, az = pz[t] * id;
+    const float sinA = R * id, cosA = std::sqrt(maxOf(dist2 - R2, 0.0f)) * id;
+    const float s = rx[t] * ax + ry[t] * ay + rz[t] * az;
+    const float qx = rx[t] - ax * s, qy = ry[t] - ay * s, qz = rz[t] - az * s;
+    const float q2 = qx * qx + qy * qy + qz * qz;
+    const float iq = 1.0f / std::sqrt(maxOf(q2, kTiny));
+    const float cx = qx * iq * cosA - ax * sinA, cy = qy * iq * cosA - ay * sinA, cz = qz * iq * cosA - az * sinA;
+    const float coneAlong = -(rx[t] * cx + ry[t] * cy + rz[t] * cz);
+    const float mx = pick(cap, wx * iw, cx), my = pick(cap, wy * iw, cy), mz = pick(cap, wz * iw, cz);
+    const float along = pick(cap, R * inv - wl, coneAlong);
+    nx[t] = mx;
+    ny[t] = my;
+    nz[t] = mz;
+    b[t] = mx * vi.x + my * vi.y + mz * vi.z + 0.5f * along;
+    degenerate[t] = pick(maskOf(pick(cap, w2, q2) > kTiny), 0.0f, 1.0f);
+  }
+}
+
+// The half-space of an obstacle at distance phi (from the agent centre to the surface)
+// with outward unit normal n, treating the surface as its tangent plane: the clearance
+// phi + t n . v must stay >= r, i.e. n . v >= (r - phi) / T, with T the obstacle time
+// horizon while phi >= r and dt once the agent is closer (then it must get out now).
+Plane obstaclePlane(F3 n, float phi, float r, float tauObstacle, float dt) {
+  const float gap = r - phi;
+  return makePlane(n, gap / (gap > 0.0f ? dt : tauObstacle));
+}
+
+// best[0, K) ascending, empty slots ~0: insert key, dropping the largest.
+// Branch-free (min/max): the keys arrive in no useful order, so a shifting
+// loop mispredicts about once per insertion.
+inline void insertBest(std::uint64_t* best, std::size_t K, std::uint64_t key) {
+  if (key >= best[K - 1]) return;
+  for (std::size_t p = K - 1; p > 0; --p) best[p] = std::max(best[p - 1], std::min(best[p], key));
+  best[0] = std::min(best[0], key);
+}
+
+// (squared distance, index) as one integer: non-negative floats order like their bits,
+// so one compare gives the order by distance, then index
+inline std::uint64_t neighborKey(float d2, std::uint32_t index) {
+  std::uint32_t bits;
+  std::memcpy(&bits, &d2, sizeof bits);
+  return (static_cast<std::uint64_t>(bits) << 32) | index;
+}
+constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
+inline float keyDistance2(std::uint64_t key) {
+  const auto bits = static_cast<std::uint32_t>(key >> 32);
+  float d2;
+  std::memcpy(&d2, &bits, sizeof d2);
+  return d2;
+}
+
+// few points: not worth waking the team
+constexpr std::size_t kSerialBelow = 256;
+template <typename F>
+void forEach(std::size_t n, std::size_t chunk, F&& body) {
+  if (n < kSerialBelow) {
+    for (std::size_t i = 0; i < n; ++i) body(i);
+  } else {
+    parallelForDynamic(n, chunk, body);
+  }
+}
+
+// histogram of the radius each agent's k-nearest search needed, in units of neighborDistance
+constexpr std::size_t kBins = 256;
+// the next search cell covers this fraction of the agents without widening
+constexpr double kCoveredFraction = 0.97;
+
+using Clock = std::chrono::steady_clock;
+
+void checkParams(const Params& p, float dt) {
+  const auto bad = [](float v) { return !std::isfinite(v); };
+  if (bad(p.radius) || p.radius < 0.0f) throw std::invalid_argument("orca: radius must be >= 0");
+  if (bad(p.neighborDistance) || p.neighborDistance < 0.0f) {
+    throw std::invalid_argument("orca: neighborDistance must be >= 0");
+  }
+  if (p.maxNeighbors < 0) throw std::invalid_argument("orca: maxNeighbors must be >= 0");
+  if (bad(p.timeHorizon) || !(p.timeHorizon > 0.0f)) throw std::invalid_argument("orca: timeHorizon must be > 0");
+  if (bad(p.timeHorizonObstacle) || !(p.timeHorizonObstacle > 0.0f)) {
+    throw std::invalid_argument("orca: timeHorizonObstacle must be > 0");
+  }
+  if (bad(p.maxSpeed) || !(p.maxSpeed > 0.0f)) throw std::invalid_argument("orca: maxSpeed must be > 0");
+  if (bad(dt) || !(dt > 0.0f)) throw std::invalid_argument("orca: dt must be > 0");
+}
+
+}  // namespace
+
+bool solveVelocity(Plane* planes, std::size_t count, std::size_t hard, const Vec3& pref, float maxSpeed, Plane* scratch,
+                   Vec3& out) {
+  const F3 want{pref.x(), pref.y(), pref.z()};
+  const float R = maxSpeed;
+  F3 v;
+  std::size_t fail = ballProgram(planes, count, R, want, false, v);
+  const bool infeasible = fail < count;
+  if (fail < hard) {
+    // the obstacles alone conflict (e.g. deep inside one): their least worst
+    // violation first; then those planes, relaxed by it, are kept hard for the agents
+    leastViolation(planes, fail, hard, 0, R, scratch, v);
+    float worst = 0.0f;
+    for (std::size_t h = 0; h < hard; ++h) worst = std::max(worst, planes[h].b - dot(normalOf(planes[h]), v));
+    for (std::size_t h = 0; h < hard; ++h) planes[h].b -= worst + 10.0f * kTolerance;
+    F3 w;
+    fail = ballProgram(planes, count, R, want, false, w);
+    if (fail >= hard) {  // else: rounding on the relaxed obstacles; keep their optimum
+      v = w;
+      if (fail < count) leastViolation(planes, fail, count, hard, R, scratch, v);
+    }
+  } else if (fail < count) {
+    leastViolation(planes, fail, count, hard, R, scratch, v);
+  }
+  // the programs stay in the ball up to rounding; clamp that, and never return NaN
+  const float v2 = dot(v, v);
+  if (v2 > R * R) v = v * (R / std::sqrt(v2));
+  if (!(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z))) v = F3{0.0f, 0.0f, 0.0f};
+  out = Vec3(v.x, v.y, v.z);
+  return infeasible;
+}
+
+Plane agentHalfSpace(const Vec3& p, const Vec3& vi, const Vec3& vj, float radius, float timeHorizon, float dt) {
+  const float R = 2.0f * radius;
+  const AgentConstants ac{R, R * R, 1.0f / timeHorizon, 1.0f / dt};
+  const F3 v{vi.x(), vi.y(), vi.z()};
+  // the batch path of solve(), with one neighbour and three fillers
+  float in[6][4] = {
+      {p.x(), 1.0f + R, 1.0f + R, 1.0f + R}, {p.y()}, {p.z()}, {vi.x() - vj.x()}, {vi.y() - vj.y()}, {vi.z() - vj.z()}};
+  float out[5][4];
+  agentPlanes(4, in[0], in[1], in[2], in[3], in[4], in[5], v, ac, out[0], out[1], out[2], out[3], out[4]);
+  if (out[4][0] == 0.0f) return Plane{out[0][0], out[1][0], out[2][0], out[3][0]};
+  return agentPlane(F3{in[0][0], in[1][0], in[2][0]}, v, F3{in[3][0], in[4][0], in[5][0]}, 0, 1, ac);
+}
+
+float Solver::suggestedCell(const Params& params) const {
+  const float nd = params.neighborDistance;
+  if (!(nextCell_ > 0.0f) || !(nd > 0.0f)) return nd;
+  return std::clamp(nextCell_, nd / 16.0f, nd);
+}
+
+void Solver::findNeighbors(const UniformGrid& grid, const Params& params) {
+  const std::size_t n = grid.size();
+  const auto K = static_cast<std::size_t>(params.maxNeighbors);
+  const float nd = params.neighborDistance;
+  std::fill(count_.begin(), count_.end(), 0u);
+  widened_ = 0;
+  if (K == 0 || !(nd > 0.0f) || n < 2) {
+    cell_ = 0.0f;
+    return;
+  }
+  const float* gx = grid.sortedX().data();
+  const float* gy = grid.sortedY().data();
+  const float* gz = grid.sortedZ().data();
+
+  // Cell edge h of the search grid: each cell gathers its 3x3x3 block, which holds
+  // every agent within h of any agent of the cell, so an agent's k nearest are final
+  // when the k-th is within h. Large h: big blocks; small h: many agents widen their
+  // search. h is the radius that covered kCoveredFraction of the agents in the last
+  // solve, or at first a guess from the mean density (1.3 times the mean k-th distance
+  // of a uniform swarm in the bounding box). It only affects speed, never the result.
+  float h = nextCell_;
+  if (!(h > 0.0f) || n > 2 * lastSize_ || 2 * n < lastSize_) {
+    float lo[3] = {gx[0], gy[0], gz[0]}, hi[3] = {gx[0], gy[0], gz[0]};
+    for (std::size_t k = 1; k < n; ++k) {
+      const float v[3] = {gx[k], gy[k], gz[k]};
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = std::min(lo[a], v[a]);
+        hi[a] = std::max(hi[a], v[a]);
+      }
+    }
+    double volume = 1.0;
+    for (int a = 0; a < 3; ++a) volume *= std::max(static_cast<double>(hi[a]) - lo[a], 0.25 * nd);
+    const double kth =
+        std::cbrt(3.0 * static_cast<double>(K) * volume / (4.0 * 3.14159265358979 * static_cast<double>(n)));
+    h = static_cast<float>(1.3 * kth);
+  }
+  h = std::clamp(h, nd / 16.0f, nd);
+  cell_ = h;
+  // the caller's grid serves when its cells are at least h (blocks of 3x3x3 cells then
+  // cover h) and not much larger (bigger blocks only cost time); otherwise our own
+  reused_ = true;
+  for (int a = 0; a < 3; ++a) reused_ = reused_ && grid.cellSize(a) >= h && grid.cellSize(a) <= 1.5f * h;
+  if (!reused_) search_.build(gx, gy, gz, n, h);
+  const UniformGrid& sg = reused_ ? grid : search_;
+  if (reused_ && identity_.size() != n) {
+    identity_.resize(n);
+    for (std::size_t k = 0; k < n; ++k) identity_[k] = static_cast<std::uint32_t>(k);
+  }
+
+  const float* sx = sg.sortedX().data();
+  const float* sy = sg.sortedY().data();
+  const float* sz = sg.sortedZ().data();
+  const std::uint32_t* order = reused_ ? identity_.data() : search_.order().data();
+  const float nd2 = nd * nd;
+  const float rc = h;  // gatherCell(c, h) spans one cell each way (cells are >= h wide)
+  const bool blockIsAll = rc >= nd;
+  const float finalBelow = rc * rc * (1.0f - 1e-5f);  // margin for float rounding of distances
+  // candidates beyond this cannot be among the k nearest unless the search widens
+  const float blockLimit = blockIsAll ? nd2 : finalBelow;
+  for (auto& t : threads_) {
+    std::fill(t.histogram.begin(), t.histogram.end(), 0u);
+    t.widened = 0;
+  }
+  const float binScale = static_cast<float>(kBins) / nd;
+
+  const auto cellWork = [&](std::size_t c) {
+    const std::uint32_t a0 = sg.cellBegin(c), a1 = sg.cellEnd(c);
+    if (a0 == a1) return;
+    ThreadScratch& ts = threads_[static_cast<std::size_t>(threadIndex())];
+    CellBlock& block = ts.block;
+    sg.gatherCell(c, rc, block);
+    std::uint64_t* best = ts.best.data();
+    float guess = blockLimit;
+    for (std::uint32_t m = a0; m < a1; ++m) {
+      const float qx = sx[m], qy = sy[m], qz = sz[m];
+      // distances to the whole block, then a first cut at a guess of the k-th distance
+      // (the previous agent's: the cell's agents are close together) so that few
+      // candidates go through the selection; if that leaves fewer than k, the block radius
+      const std::size_t size = block.size;
+      {
+        const float* __restrict bx = block.x.data();
+        const float* __restrict by = block.y.data();
+        const float* __restrict bz = block.z.data();
+        float* __restrict dd = block.d2.data();
+        for (std::size_t j = 0; j < size; ++j) {  // vectorises
+          const float dx = bx[j] - qx, dy = by[j] - qy, dz = bz[j] - qz;
+          dd[j] = dx * dx + dy * dy + dz * dz;
+        }
+      }
+      const float* d2s = block.d2.data();
+      std::uint32_t* hit = block.hits.data();
+      const auto compact = [&](float limit) {
+        std::size_t found = 0;
+        for (std::size_t j = 0; j < size; ++j) {  // branch-free
+          hit[found] = static_cast<std::uint32_t>(j);
+          found += d2s[j] <= limit ? 1u : 0u;
+        }
+        return found;
+      };
+      std::size_t hits = guess < blockLimit ? compact(guess) : 0;
+      if (hits <= K) hits = compact(blockLimit);  // (the agent itself is one of the hits)
+      std::fill(best, best + K, kEmpty);
+      for (std::size_t t = 0; t < hits; ++t) {
+        const std::uint32_t b = hit[t];
+        const std::uint32_t other = block.index[b];
+        const float d2 = d2s[b];
+        if (other == m || !(d2 < nd2)) continue;
+        insertBest(best, K, neighborKey(d2, order[other]));
+      }
+      if (!blockIsAll && !(best[K - 1] != kEmpty && keyDistance2(best[K - 1]) <= finalBelow)) {
+        // the k-th may lie outside the block. Once k candidates are known, the k-th
+        // of them bounds the true k-th distance, so one search of that radius is final;
+        // with fewer, search in growing cubes up to neighborDistance.
+        ++ts.widened;
+        const auto search = [&](float r, float limit) {
+          std::fill(best, best + K, kEmpty);
+          sg.forEachRun(qx, qy, qz, r, [&](std::uint32_t b, std::uint32_t e) {
+            for (std::uint32_t o = b; o < e; ++o) {
+              const float dx = sx[o] - qx, dy = sy[o] - qy, dz = sz[o] - qz;
+              const float d2 = dx * dx + dy * dy + dz * dz;
+              if (o == m || !(d2 <= limit && d2 < nd2)) continue;
+              insertBest(best, K, neighborKey(d2, order[o]));
+            }
+          });
+        };
+        float r = rc;
+        while (best[K - 1] == kEmpty && r < nd) {
+          r = std::min(nd, 1.5f * r);
+          search(r, r * r);
+        }
+        if (best[K - 1] != kEmpty && !(r >= nd || keyDistance2(best[K - 1]) <= r * r * (1.0f - 1e-5f))) {
+          const float kth2 = keyDistance2(best[K - 1]);
+          search(std::sqrt(kth2), kth2);
+        }
+      }
+      const std::size_t cnt = static_cast<std::size_t>(std::lower_bound(best, best + K, kEmpty) - best);
+      const std::uint32_t k = order[m];
+      std::uint32_t* out = nbr_.data() + static_cast<std::size_t>(k) * K;
+      for (std::size_t t = 0; t < cnt; ++t) out[t] = static_cast<std::uint32_t>(best[t]);
+      count_[k] = static_cast<std::uint32_t>(cnt);
+      guess = cnt == K ? 1.3f * keyDistance2(best[K - 1]) : blockLimit;
+      const float needed = cnt == K ? std::sqrt(keyDistance2(best[K - 1])) : nd;
+      ++ts.histogram[std::min(kBins - 1, static_cast<std::size_t>(needed * binScale))];
+    }
+  };
+  const std::size_t cells = sg.cellCount();
+  if (n < kSerialBelow) {
+    for (std::size_t c = 0; c < cells; ++c) cellWork(c);
+  } else {
+    const auto team = static_cast<std::size_t>(std::max(1, threadCount()));
+    const std::size_t chunk = std::clamp<std::size_t>(cells / (16 * team), 1, 64);
+    parallelForDynamic(cells, chunk, cellWork);
+  }
+
+  // next cell edge: the radius that covered kCoveredFraction of the agents
+  std::fill(histogram_.begin(), histogram_.end(), 0u);
+  for (const auto& t : threads_) {
+    for (std::size_t b = 0; b < kBins; ++b) histogram_[b] += t.histogram[b];
+    widened_ += t.widened;
+  }
+  const auto target = static_cast<std::size_t>(kCoveredFraction * static_cast<double>(n));
+  std::size_t seen = 0, bin = 0;
+  while (bin + 1 < kBins && (seen += histogram_[bin]) < target) ++bin;
+  nextCell_ = nd * static_cast<float>(bin + 1) / static_cast<float>(kBins);
+  lastSize_ = n;
+}
+
+void Solver::solve(const UniformGrid& grid, const float* vx, const float* vy, const float* vz, const float* prefX,
+                   const float* prefY, const float* prefZ, const Params& params, const Obstacles& obstacles, float dt,
+                   float* outX, float* outY, float* outZ) {
+  checkParams(params, dt);
+  const auto t0 = Clock::now();
+  const std::size_t n = grid.size();
+  const auto K = static_cast<std::size_t>(params.maxNeighbors);
+  // scratch: grows only when the problem or the team grows
+  stride_ = params.maxNeighbors;
+  if (nbr_.size() < n * K) nbr_.resize(n * K);
+  count_.resize(n);
+  histogram_.resize(kBins);
+  const auto team = static_cast<std::size_t>(std::max(1, threadCount()));
+  if (threads_.size() < team) threads_.resize(team);
+  const std::size_t maxPlanes = K + obstacles.spheres.size() + 1;
+  for (auto& t : threads_) {
+    if (t.best.size() < K) t.best.resize(K);
+    if (t.planes.size() < maxPlanes) {
+      t.planes.resize(maxPlanes);
+      t.projected.resize(maxPlanes);
+    }
+    if (t.batch.size() < 11 * (K + 3)) t.batch.resize(11 * (K + 3));
+    t.histogram.resize(kBins);
+    t.infeasible = 0;
+  }
+
+  findNeighbors(grid, params);
+  const auto t1 = Clock::now();
+
+  const float* sx = grid.sortedX().data();
+  const float* sy = grid.sortedY().data();
+  const float* sz = grid.sortedZ().data();
+  const float r = params.radius;
+  const float R = 2.0f * r;
+  const AgentConstants ac{R, R * R, 1.0f / params.timeHorizon, 1.0f / dt};
+  const float tauO = params.timeHorizonObstacle;
+  const float reach = params.maxSpeed * tauO;  // obstacles farther than r + reach cannot be hit in time
+  const Grid3<float>* sdf = obstacles.sdf;
+  forEach(n, 256, [&](std::size_t k) {
+    ThreadScratch& ts = threads_[static_cast<std::size_t>(threadIndex())];
+    Plane* planes = ts.planes.data();
+    std::size_t m = 0;
+    const F3 xi{sx[k], sy[k], sz[k]};
+    const F3 vi{vx[k], vy[k], vz[k]};
+    // obstacles first: they stay hard in the fallback
+    for (const Sphere& s : obstacles.spheres) {
+      const F3 d = xi - F3{s.center.x(), s.center.y(), s.center.z()};
+      const float dist2 = dot(d, d), far = s.radius + r + reach;
+      if (dist2 >= far * far) continue;
+      const float dist = std::sqrt(dist2);
+      const F3 nrm = dist > 0.0f ? d * (1.0f / dist) : F3{1.0f, 0.0f, 0.0f};
+      Plane pl = obstaclePlane(nrm, dist - s.radius, r, tauO, dt);
+      pl.b += nrm.x * s.velocity.x() + nrm.y * s.velocity.y() + nrm.z * s.velocity.z();  // n.(v - v_s) >= b
+      planes[m++] = pl;
+    }
+    if (sdf) {
+      const Vec3 x(xi.x, xi.y, xi.z);
+      const float phi = sdf->sample(x);
+      if (phi - r < reach) {
+        const Vec3 g = normalAt(*sdf, x);
+        if (g.squaredNorm() > 0.0f) planes[m++] = obstaclePlane(F3{g.x(), g.y(), g.z()}, phi, r, tauO, dt);
+      }
+    }
+    const std::size_t hard = m;
+    std::size_t cnt;
+    const std::uint32_t* nb = neighbors(k, cnt);
+    {
+      const std::size_t padded = (cnt + 3) & ~std::size_t{3};
+      float* f = ts.batch.data();
+      float *px = f, *py = px + padded, *pz = py + padded, *rx = pz + padded, *ry = rx + padded, *rz = ry + padded;
+      for (std::size_t t = 0; t < cnt; ++t) {
+        const std::uint32_t j = nb[t];
+        px[t] = sx[j] - xi.x;
+        py[t] = sy[j] - xi.y;
+        pz[t] = sz[j] - xi.z;
+        rx[t] = vi.x - vx[j];
+        ry[t] = vi.y - vy[j];
+        rz[t] = vi.z - vz[j];
+      }
+      for (std::size_t t = cnt; t < padded; ++t) {  // harmless filler, dropped below
+        px[t] = 1.0f + R;
+        py[t] = pz[t] = rx[t] = ry[t] = rz[t] = 0.0f;
+      }
+      float *nx = rz + padded, *ny = nx + padded, *nz = ny + padded, *b = nz + padded, *degenerate = b + padded;
+      agentPlanes(padded, px, py, pz, rx, ry, rz, vi, ac, nx, ny, nz, b, degenerate);
+      for (std::size_t t = 0; t < cnt; ++t) {
+        planes[m++] = degenerate[t] == 0.0f ? Plane{nx[t], ny[t], nz[t], b[t]}
+                                            : agentPlane(F3{px[t], py[t], pz[t]}, vi, F3{rx[t], ry[t], rz[t]},
+                                                         static_cast<std::uint32_t>(k), nb[t], ac);
+      }
+    }
+    Vec3 v;
+    if (solveVelocity(planes, m, hard, Vec3(prefX[k], prefY[k], prefZ[k]), params.maxSpeed, ts.projected.data(), v)) {
+      ++ts.infeasible;
+    }
+    outX[k] = v.x();
+    outY[k] = v.y();
+    outZ[k] = v.z();
+  });
+  infeasible_ = 0;
+  for (const auto& t : threads_) infeasible_ += t.infeasible;
+  const auto t2 = Clock::now();
+  neighbourSeconds_ = std::chrono::duration<double>(t1 - t0).count();
+  lpSeconds_ = std::chrono::duration<double>(t2 - t1).count();
+}
+
+}  // namespace swarmsim::orca
