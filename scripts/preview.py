@@ -188,10 +188,27 @@ def render(args):
 
     shown = sum(block.shape[1] for _, _, block in data)
     domain = domain_of(scenario)
-    return draw(args, data, domain, title_name, frame, frames, time, total, shown, stride, complete, trail_time)
+    stimuli = stimuli_at(scenario, chosen, time)
+    return draw(args, data, domain, title_name, frame, frames, time, total, shown, stride, complete, trail_time,
+                stimuli)
 
 
-def draw(args, data, domain, title_name, frame, frames, time, total, shown, stride, complete, trail_time):
+def stimuli_at(scenario, swarms, time):
+    """The bswarm stimuli of the drawn swarms at `time`: (kind, centre, radius) each."""
+    out = []
+    for sw in scenario.get("swarms", []):
+        if sw.get("name") not in swarms or math.isnan(time):
+            continue
+        for st in sw.get("params", {}).get("stimuli", []) or []:
+            keys = st.get("keyframes") or [{"time": 0.0, "center": st.get("center", [0, 0, 0])}]
+            times = [float(k["time"]) for k in keys]
+            centre = np.array([np.interp(time, times, [float(k["center"][a]) for k in keys]) for a in range(3)])
+            out.append((st.get("type", "attractor"), centre, float(st.get("radius", 0.0))))
+    return out
+
+
+def draw(args, data, domain, title_name, frame, frames, time, total, shown, stride, complete, trail_time,
+         stimuli=()):
     three_d = args.view == "3d"
     trail_frames = data[0][2].shape[0] - 1
     fig = plt.figure(figsize=tuple(args.size), dpi=args.dpi)
@@ -223,6 +240,15 @@ def draw(args, data, domain, title_name, frame, frames, time, total, shown, stri
         ax.scatter(*pts, s=size, color=colour, alpha=0.9, linewidths=0, label=label,
                    **({"depthshade": False} if three_d else {}))
 
+    for kind, centre, radius in stimuli:  # red: predator, green: attractor
+        colour = "tab:red" if kind == "predator" else "tab:green"
+        pts = [[centre[a]] for a in axes]
+        # a disc roughly the sphere's size (points^2 from the radius relative to the domain)
+        extent = max(float(np.max(domain[1] - domain[0])), 1e-9) if domain is not None else 1.0
+        area = max(40.0, (radius / extent * 0.8 * 72.0 * max(args.size)) ** 2 * math.pi)
+        ax.scatter(*pts, s=area, color=colour, alpha=0.35, linewidths=1, edgecolors=colour,
+                   label="%s stimulus" % kind, **({"depthshade": False} if three_d else {}))
+
     whole_domain = set_bounds(ax, args.view, args.bounds, data, domain)
     for a, axis in enumerate(axes):
         getattr(ax, "set_%slabel" % "xyz"[a])("%s (m)" % AXIS_NAMES[axis])
@@ -245,6 +271,8 @@ def draw(args, data, domain, title_name, frame, frames, time, total, shown, stri
     legend = ax.legend(loc="upper right", fontsize=9, markerscale=max(1.0, 4.0 / math.sqrt(size)))
     for h in legend.legend_handles if hasattr(legend, "legend_handles") else legend.legendHandles:
         h.set_alpha(1.0)
+        if hasattr(h, "set_sizes"):
+            h.set_sizes([30.0])
     if three_d:
         fig.subplots_adjust(left=0.0, right=0.95, bottom=0.04, top=0.9)
     else:
