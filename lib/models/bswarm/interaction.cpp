@@ -20,6 +20,7 @@ namespace {
 using Block = InteractionForces::Block;
 using Node = InteractionForces::Node;
 using Expansion = InteractionForces::Expansion;
+using CutModel = InteractionForces::CutModel;
 
 // The scan works on 8 logical lanes: one AVX register, or two SSE registers on CPUs without AVX. Every
 // operation is exact IEEE arithmetic per lane and the lanes are added in a fixed order, so both give the
@@ -30,7 +31,7 @@ constexpr float kTiny = 1e-30f;                // floor of squared distances: pr
 constexpr float kFar = 1e18f;                  // padding position: beyond every radius, its square still finite
 constexpr std::size_t kSerialWorkBelow = 256;  // fewer queries run on the calling thread
 
-// The octree (a binary radix tree over Morton codes) and its walk. Tuned on 200,000 locusts (docs).
+// The tree (binary, over Morton codes) and its walk. Tuned on 200,000 locusts (docs/models/bswarm.md).
 constexpr std::uint32_t kLevels = 10;        // bits per axis of the Morton code
 constexpr std::uint32_t kLeafSize = 16;      // a node with more agents is split (unless its agents coincide)
 constexpr std::uint32_t kBatchSize = 64;     // agents sharing one list of sources
@@ -520,25 +521,24 @@ inline double uniformSumCdf(double t, double wa, double wb, double wc) {
   return std::clamp(v / (6.0 * wa * wb * wc), 0.0, 1.0);
 }
 
-// A cell that straddles zone borders, seen from agent q: its agents are split between the zones by the
-// fraction inside each border sphere. Their positions along u (toward the centroid, at distance r) are
-// modelled as the projection of the cell's box filled uniformly (a sum of three uniforms), rescaled to the
-// cell's own variance u.Cov.u and centred on the centroid: exact for a uniformly filled box, close for a
-// clump. The sphere of radius R is replaced by the plane u.(x - q) = R - rho^2 / (2R), rho^2 = tr(Cov) -
-// u.Cov.u the agents' mean squared distance from the line q + s u. All in the direction u (or, for ali, of
-// the mean velocity).
-inline void addCut(const Node& c, const float q[6], const Zones& z, Sums& s) {
-  const double count = static_cast<double>(c.end - c.begin);
-  const double d[3] = {c.c[0] - q[0], c.c[1] - q[1], c.c[2] - q[2]};
+// A cell that straddles zone borders: its agents are split between the zones by the fraction of them inside
+// each border sphere. Their positions along u (toward the centroid) are modelled as the projection of the
+// cell's box filled uniformly (a sum of three uniforms), rescaled to the cell's own variance u.Cov.u and
+// centred on the centroid: exact for a uniformly filled box, close for a clump. The sphere of radius R is
+// replaced by the plane u.(x - q) = R - rho^2 / (2R), rho^2 = tr(Cov) - u.Cov.u the agents' mean squared
+// distance from the line q + s u. The model's shape depends on u only, and u hardly changes across a batch
+// (the cell is far from it): it is set up once per batch (CutModel), with u toward the batch's centroid.
+CutModel cutModel(const Node& c, const float from[3]) {
+  CutModel m{};
+  const double d[3] = {c.c[0] - from[0], c.c[1] - from[1], c.c[2] - from[2]};
   const double r = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-  if (!(r > 0.0)) return;
+  if (!(r > 0.0)) return m;
   const double u[3] = {d[0] / r, d[1] / r, d[2] / r};
   double cv[6];
   for (int a = 0; a < 6; ++a) cv[a] = c.cov[a];
   const double var = std::max(u[0] * u[0] * cv[0] + u[1] * u[1] * cv[3] + u[2] * u[2] * cv[5] +
                                   2.0 * (u[0] * u[1] * cv[1] + u[0] * u[2] * cv[2] + u[1] * u[2] * cv[4]),
                               0.0);
-  const double lateral = std::max(cv[0] + cv[3] + cv[5] - var, 0.0);
   double w[3], wsum = 0.0, boxVar = 0.0;
   for (int a = 0; a < 3; ++a) {
     w[a] = std::abs(u[a]) * (static_cast<double>(c.hi[a]) - c.lo[a]);
@@ -549,11 +549,23 @@ inline void addCut(const Node& c, const float q[6], const Zones& z, Sums& s) {
     boxVar += x * x / 12.0;
   }
   const double scale = std::sqrt(var / boxVar);
-  for (double& x : w) x *= scale;
-  const double start = r - 0.5 * (w[0] + w[1] + w[2]);
+  for (int a = 0; a < 3; ++a) m.w[a] = static_cast<float>(w[a] * scale);
+  m.lateral = static_cast<float>(std::max(cv[0] + cv[3] + cv[5] - var, 0.0));
+  return m;
+}
+
+// cell c, split by the zone borders around agent q (model m)
+inline void addCut(const Node& c, const CutModel& m, const float q[6], const Zones& z, Sums& s) {
+  const double count = static_cast<double>(c.end - c.begin);
+  const double d[3] = {c.c[0] - q[0], c.c[1] - q[1], c.c[2] - q[2]};
+  const double r = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+  if (!(r > 0.0)) return;
+  const double u[3] = {d[0] / r, d[1] / r, d[2] / r};
+  const double w[3] = {m.w[0], m.w[1], m.w[2]}, start = r - 0.5 * (w[0] + w[1] + w[2]);
+  const bool spread = w[0] > 0.0;
   const auto inside = [&](double radius) {
-    const double border = radius - lateral / (2.0 * radius);
-    return scale > 0.0 ? uniformSumCdf(border - start, w[0], w[1], w[2]) : (border >= r ? 1.0 : 0.0);
+    const double border = radius - m.lateral / (2.0 * radius);
+    return spread ? uniformSumCdf(border - start, w[0], w[1], w[2]) : (border >= r ? 1.0 : 0.0);
   };
   const double fRep = inside(z.rRep), fAli = std::max(inside(z.rAli), fRep), fAtt = std::max(inside(z.rAtt), fAli);
   const double nRep = count * fRep, nAli = count * (fAli - fRep), nAtt = count * (fAtt - fAli);
@@ -582,7 +594,7 @@ inline bool evenlyFilled(const Node& c) {
   return spread > 0.7f * box && spread < 1.3f * box;
 }
 
-// what a walk needs besides the octree
+// what a walk needs besides the tree
 struct WalkParams {
   Zones z;
   float theta2;     // squared theta
@@ -894,7 +906,7 @@ void InteractionForces::buildTree(const UniformGrid& grid, const float* vx, cons
   }
 }
 
-// The walk of target node t, a dual-tree walk (targets and sources are both octree nodes). The sources in
+// The walk of target node t, a dual-tree walk (targets and sources are both tree cells). The sources in
 // cand[candBegin, candEnd) are those t's parent left undecided; for each source c:
 //  - no agent of c within reach of an agent of t, or only zones without weight: nothing;
 //  - c's diameter below theta times the distance between their boxes (in velocity space too for zone ali) and
@@ -1005,6 +1017,8 @@ void InteractionForces::evaluateBatch(const Node& T, const Expansion& e, Scratch
       for (std::uint32_t c = nd.firstChild + nd.childCount; c-- > nd.firstChild;) sc.open.push_back(c);
     }
   }
+  sc.cutModels.resize(sc.cut.size());
+  for (std::size_t i = 0; i < sc.cut.size(); ++i) sc.cutModels[i] = cutModel(nodes_[sc.cut[i]], T.c);
   Block& list = sc.list;
   for (const std::uint32_t si : sc.leaves) {
     const Node& S = nodes_[si];
@@ -1046,7 +1060,7 @@ void InteractionForces::evaluateBatch(const Node& T, const Expansion& e, Scratch
       Sums s;
       scan(list, &sc.far, q, z, w.avx, s);
       addExpansion(e, q, s);
-      for (const std::uint32_t ci : sc.cut) addCut(nodes_[ci], q, z, s);
+      for (std::size_t i = 0; i < sc.cut.size(); ++i) addCut(nodes_[sc.cut[i]], sc.cutModels[i], q, z, s);
       const std::uint32_t k = mk_[m];
       assemble(s, z, w.fx + k, w.fy + k, w.fz + k);
     }

@@ -26,9 +26,10 @@ class InteractionForces {
   // accurate). The agents are grouped in a tree of boxes; a group of agents (a cell) acts on other agents as
   // one pseudo-agent (its count at its centroid, with its mean velocity) when the diagonal of its bounding
   // box is below theta times the smallest distance between it and the agents it acts on (for zone ali also
-  // in velocity space) and every such pair lies in one zone. A cell below theta/2 times that distance that
-  // straddles a zone border is split between the zones by the fraction of it inside. Agents near the zone
-  // borders of one another are always taken one by one. docs/models/bswarm.md: details, measured error.
+  // in velocity space) and every such pair lies in one zone. A cell below theta/2 times that distance (theta/8
+  // if its agents do not fill its box evenly) that straddles a zone border is split between the zones by the
+  // fraction of it inside. Agents near the zone borders of one another are always taken one by one.
+  // docs/models/bswarm.md: details, measured error (default theta 2: p95 below about 3 %).
   // Inputs in the grid's sorted order k = 0..grid.size()-1: positions grid.sortedX()/Y()/Z(), velocities
   // vx/vy/vz[k]; any cell size works. Writes F_int to fx/fy/fz[k]. Deterministic: bit-identical for any
   // number of threads (and on any x86-64 CPU, with or without AVX). No heap allocation in steady state.
@@ -37,18 +38,22 @@ class InteractionForces {
   // seconds of the last compute (including any aggregation it builds)
   double seconds() const { return seconds_; }
 
+  // Implementation types (public for the helpers in the source file).
   // candidates of one query as structure of arrays (w: agents per entry), padded to whole SIMD blocks
   struct Block {
     std::vector<float> x, y, z, vx, vy, vz, w;
     std::size_t size = 0;
   };
   // a cell of the tree: its agents are [begin, end) in Morton order
-  struct Node {
+  struct alignas(64) Node {
+    // what the walk reads first: in the first 64 bytes
     std::uint32_t begin, end, firstChild, childCount;  // childCount 0: a leaf
     float lo[3], hi[3];                                // bounding box of the agents
-    float vlo[3], vhi[3];                              // bounding box of their velocities
-    float c[3], v[3];                                  // centroid, mean velocity
-    float diag2, vdiag2;                               // squared diagonals of the boxes
+    float diag2;                                       // squared diagonal of the box
+    float c[3];                                        // centroid
+    float v[3];                                        // mean velocity
+    float vlo[3], vhi[3];                              // bounding box of the velocities
+    float vdiag2;                                      // its squared diagonal
     float cov[6];                                      // covariance of the positions: xx, xy, xz, yy, yz, zz
   };
   // the far field of a group of agents, to first order about its centroid (position) and mean velocity:
@@ -57,11 +62,17 @@ class InteractionForces {
     double s[3][3], g[3][9], n[3];
     double c[3], v[3];
   };
+  // how a cell cut by zone borders spreads toward a batch (addCut)
+  struct CutModel {
+    float w[3];     // widths of three uniform distributions; all 0: the agents coincide
+    float lateral;  // mean squared distance of the agents from the line through the centroid
+  };
   struct alignas(64) Scratch {                                 // one per thread: aligned against false sharing
     Block list;                                                // the agents near one batch
     Block far;                                                 // pseudo-agents for the batch and its ancestors
     std::vector<std::uint32_t> cand, open, near, cut, leaves;  // the tree walk (see walk)
     std::vector<Expansion> exp;                                // one per tree level of the walk
+    std::vector<CutModel> cutModels;                           // per cut cell: its model for the batch
   };
 
  private:
