@@ -345,7 +345,7 @@ class BswarmModel final : public Model {
     });
     s.swapStorage(next_);
 
-    lastPolarisation_ = polarisation(s.vx.data(), s.vy.data(), s.vz.data(), n);
+    lastPolarisation_ = polarisation(s.vx.data(), s.vy.data(), s.vz.data(), n, &polarParts_);
     lastStimulusDistance_ = nearestToStimulus(s);
     frameAgentSteps_ += n;
     totalAgentSteps_ += n;
@@ -384,10 +384,11 @@ class BswarmModel final : public Model {
   }
 
   // distance from the first stimulus's surface to the nearest insect (NaN without stimuli); min is exact in any order
-  double nearestToStimulus(const SwarmState& s) const {
+  double nearestToStimulus(const SwarmState& s) {
     if (p_.stimuli.empty() || s.size() == 0) return std::numeric_limits<double>::quiet_NaN();
     const Vec3 c = stimulusCenters_[0];
-    std::vector<float> part(static_cast<std::size_t>(chunkCount(s.size())), std::numeric_limits<float>::infinity());
+    std::vector<float>& part = nearestParts_;  // kept between steps
+    part.assign(static_cast<std::size_t>(chunkCount(s.size())), std::numeric_limits<float>::infinity());
     parallelChunks(s.size(), [&](std::size_t first, std::size_t last, int chunk) {
       float m = std::numeric_limits<float>::infinity();
       for (std::size_t i = first; i < last; ++i) m = std::min(m, (s.position(i) - c).squaredNorm());
@@ -413,6 +414,8 @@ class BswarmModel final : public Model {
   std::vector<float> vx_, vy_, vz_, fx_, fy_, fz_, wx_, wy_, wz_, ox_, oy_, oz_;  // sorted order
   std::vector<std::uint32_t> ids_;
   std::vector<Vec3> stimulusCenters_;
+  std::vector<float> nearestParts_;
+  std::vector<Vec3d> polarParts_;
   SwarmState next_;
   double tDistance_ = 0.0, tNoise_ = 0.0;
   double tGrid_ = 0.0, tForces_ = 0.0, tOrcaNeighbours_ = 0.0, tOrcaLp_ = 0.0;
@@ -478,12 +481,14 @@ void BswarmSchedule::apply(double t, BswarmDynamic& d) const {
   }
 }
 
-double polarisation(const float* vx, const float* vy, const float* vz, std::size_t n) {
+double polarisation(const float* vx, const float* vy, const float* vz, std::size_t n, std::vector<Vec3d>* scratch) {
   if (n == 0) return 0.0;
   // fixed blocks of 4,096 agents summed in block order: the same for any thread count
   constexpr std::size_t kBlock = 4096;
   const std::size_t blocks = (n + kBlock - 1) / kBlock;
-  std::vector<Vec3d> part(blocks, Vec3d::Zero());
+  std::vector<Vec3d> local;
+  std::vector<Vec3d>& part = scratch ? *scratch : local;
+  part.assign(blocks, Vec3d::Zero());
   parallelForDynamic(blocks, 1, [&](std::size_t b) {
     Vec3d sum = Vec3d::Zero();
     for (std::size_t i = b * kBlock; i < std::min(n, (b + 1) * kBlock); ++i) {

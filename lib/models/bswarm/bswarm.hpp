@@ -123,6 +123,8 @@ Vec3 responseForce(const ResponseInputs& in, const Vec3& x, const Vec3& v, float
 
 // |mean of the unit velocities| (0 for an empty swarm; zero velocities count as
 // zero vectors); summed in fixed blocks, so independent of threads
-double polarisation(const float* vx, const float* vy, const float* vz, std::size_t n);
+// (`scratch`, if given, holds the per-block sums so repeated calls do not allocate)
+double polarisation(const float* vx, const float* vy, const float* vz, std::size_t n,
+                    std::vector<Vec3d>* scratch = nullptr);
 
 }  // namespace swarmsim
