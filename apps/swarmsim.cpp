@@ -1,5 +1,5 @@
 // swarmsim: command-line batch simulator of flying insect swarms.
-// Subcommands: run, validate, info, bench. Exit codes: see core/error.hpp.
+// Subcommands: run, validate, info, bench, evaluate. Exit codes: see core/error.hpp.
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -10,6 +10,7 @@
 #include "bench.hpp"
 #include "core/error.hpp"
 #include "core/parallel.hpp"
+#include "eval/score.hpp"
 #include "io/scenario.hpp"
 #include "io/trajectory_reader.hpp"
 #include "run.hpp"
@@ -104,6 +105,23 @@ int main(int argc, char** argv) {
   std::vector<std::string> benchSets;
   bench->add_option("--set", benchSets, "Override a value of every benched scenario (as for run)")->type_name("PATH=VALUE");
 
+  // evaluate
+  eval::EvaluateOptions evalOpt;
+  std::string evalFrames;
+  CLI::App* evaluate =
+      app.add_subcommand("evaluate", "Score a simulation against reference tracks (wang2015 metrics; HDF5 or CSV)");
+  evaluate->add_option("sim", evalOpt.sim, "Simulation: swarmsim HDF5 output or tracks CSV")->required();
+  evaluate->add_option("--reference", evalOpt.reference, "Reference: HDF5 output or tracks CSV")->required();
+  evaluate->add_option("--swarm", evalOpt.source.swarm, "Swarm of an HDF5 file (default: the only one)");
+  evaluate->add_option("--frames", evalFrames, "Samples A:B (half-open, either side optional)")->type_name("A:B");
+  evaluate->add_flag("--json", evalOpt.json, "Print JSON");
+  evaluate->add_option("--bins", evalOpt.bins, "Z-score bins of the PDFs")->check(CLI::Range(2, 1000000));
+  evaluate->add_option("--sim-scale", evalOpt.simScale, "Multiply SIM positions and velocities by F")
+      ->check(CLI::PositiveNumber);
+  evaluate->add_option("--delimiter", evalOpt.source.csv.delimiter, "CSV delimiter: , ; or tab (default: detect)");
+  evaluate->add_option("--columns", evalOpt.source.csv.columns, "CSV columns, e.g. id=object,time=t,x=X,...")
+      ->type_name("KEY=NAME,...");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -164,6 +182,11 @@ int main(int argc, char** argv) {
       opt.repeat = benchRepeat;
       opt.json = benchJson;
       runBench(opt, std::cout);
+      return kExitOk;
+    }
+    if (*evaluate) {
+      if (!evalFrames.empty()) evalOpt.source.frames = eval::FrameRange::parse(evalFrames);
+      eval::runEvaluate(evalOpt, std::cout);
       return kExitOk;
     }
   } catch (const Error& e) {
