@@ -81,6 +81,56 @@ void printTable1(const std::vector<BenchRow>& rows, std::ostream& out) {
   }
 }
 
+// One result row: a JSON line, or a table line (with the header before the
+// first) followed by one line of model facts per swarm that has any.
+void printRow(const BenchRow& row, const BenchOptions& options, std::ostream& out, bool& headerDone) {
+  char line[256];
+  if (options.json) {
+    Json j = {{"scenario", row.scenario},
+              {"model", row.model},
+              {"agents", row.agents},
+              {"threads", row.threads},
+              {"preprocess_s", row.preprocessSeconds},
+              {"steps_per_s", row.stepsPerSecond},
+              {"ns_per_agent_step", row.nsPerAgentStep},
+              {"steps", row.steps},
+              {"repeat", options.repeat},
+              {"model_info", row.modelInfo}};
+    out << j.dump() << "\n";
+    out.flush();
+    return;
+  }
+  if (!headerDone) {
+    std::snprintf(line, sizeof line, "%-24s %-10s %10s %7s %13s %12s %14s\n", "scenario", "model", "agents", "threads",
+                  "preprocess_s", "steps/s", "ns/agent-step");
+    out << line;
+    headerDone = true;
+  }
+  std::snprintf(line, sizeof line, "%-24s %-10s %10lld %7d %13.4f %12.2f %14.1f\n", row.scenario.c_str(),
+                row.model.c_str(), static_cast<long long>(row.agents), row.threads, row.preprocessSeconds,
+                row.stepsPerSecond, row.nsPerAgentStep);
+  out << line;
+  // model facts (e.g. the field model's Table 1 columns)
+  for (const Json& info : row.modelInfo) {
+    if (info.empty()) continue;
+    std::string facts;
+    for (const auto& item : info.items()) {
+      if (item.key() == "swarm" || item.key() == "agents") continue;
+      std::string v;
+      if (item.value().is_number_float()) {
+        char num[32];
+        std::snprintf(num, sizeof num, "%.4g", item.value().get<double>());
+        v = num;
+      } else {
+        v = item.value().is_string() ? item.value().get<std::string>() : item.value().dump();
+      }
+      facts += " " + item.key() + "=" + v;
+    }
+    out << "    " << info.value("swarm", std::string()) << ":" << facts << "\n";
+  }
+  out.flush();
+}
+
 // orca-100k: the ORCA solver alone (lib/orca, docs/orca.md), no model. 100,000
 // agents on a cubic lattice of spacing 4 m (47 per side, the top layer partly
 // filled), at rest, radius 1.5 m, maxNeighbors 10, neighborDistance 15 m, both
@@ -184,34 +234,7 @@ void runOrcaBench(const BenchOptions& options, const std::vector<std::int64_t>& 
                                         {"swarm", "agents"},
                                         {"agents", row.agents}}});
       rows.push_back(row);
-      char line[256];
-      if (options.json) {
-        Json j = {{"scenario", row.scenario},
-                  {"model", row.model},
-                  {"agents", row.agents},
-                  {"threads", row.threads},
-                  {"preprocess_s", row.preprocessSeconds},
-                  {"steps_per_s", row.stepsPerSecond},
-                  {"ns_per_agent_step", row.nsPerAgentStep},
-                  {"steps", row.steps},
-                  {"repeat", options.repeat},
-                  {"model_info", row.modelInfo}};
-        out << j.dump() << "\n";
-      } else {
-        if (!headerDone) {
-          std::snprintf(line, sizeof line, "%-24s %-10s %10s %7s %13s %12s %14s\n", "scenario", "model", "agents",
-                        "threads", "preprocess_s", "steps/s", "ns/agent-step");
-          out << line;
-          headerDone = true;
-        }
-        std::snprintf(line, sizeof line, "%-24s %-10s %10lld %7d %13.4f %12.2f %14.1f\n", row.scenario.c_str(),
-                      row.model.c_str(), static_cast<long long>(row.agents), row.threads, row.preprocessSeconds,
-                      row.stepsPerSecond, row.nsPerAgentStep);
-        out << line;
-        std::snprintf(line, sizeof line, "    agents: grid_ms=%.4g infeasible=%zu neighbours_ms=%.4g orca_ms=%.4g\n",
-                      1e3 * median(grid), infeasible, 1e3 * median(neighbours), 1e3 * median(lp));
-        out << line;
-      }
+      printRow(row, options, out, headerDone);
       out.flush();
     }
   }
@@ -309,49 +332,7 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
         row.steps = steps;
         row.modelInfo = info;
         rows.push_back(row);
-        char line[256];
-        if (options.json) {
-          Json j = {{"scenario", row.scenario},
-                    {"model", row.model},
-                    {"agents", row.agents},
-                    {"threads", row.threads},
-                    {"preprocess_s", row.preprocessSeconds},
-                    {"steps_per_s", row.stepsPerSecond},
-                    {"ns_per_agent_step", row.nsPerAgentStep},
-                    {"steps", row.steps},
-                    {"repeat", options.repeat},
-                    {"model_info", row.modelInfo}};
-          out << j.dump() << "\n";
-        } else {
-          if (!headerDone) {
-            std::snprintf(line, sizeof line, "%-24s %-10s %10s %7s %13s %12s %14s\n", "scenario", "model", "agents",
-                          "threads", "preprocess_s", "steps/s", "ns/agent-step");
-            out << line;
-            headerDone = true;
-          }
-          std::snprintf(line, sizeof line, "%-24s %-10s %10lld %7d %13.4f %12.2f %14.1f\n", row.scenario.c_str(),
-                        row.model.c_str(), static_cast<long long>(row.agents), row.threads, row.preprocessSeconds,
-                        row.stepsPerSecond, row.nsPerAgentStep);
-          out << line;
-          // model facts (e.g. the field model's Table 1 columns), one line per swarm that has any
-          for (std::size_t i = 0; i < row.modelInfo.size(); ++i) {
-            if (row.modelInfo[i].empty()) continue;
-            std::string facts;
-            for (const auto& item : row.modelInfo[i].items()) {
-              if (item.key() == "swarm" || item.key() == "agents") continue;
-              std::string v;
-              if (item.value().is_number_float()) {
-                char num[32];
-                std::snprintf(num, sizeof num, "%.4g", item.value().get<double>());
-                v = num;
-              } else {
-                v = item.value().is_string() ? item.value().get<std::string>() : item.value().dump();
-              }
-              facts += " " + item.key() + "=" + v;
-            }
-            out << "    " << sc.swarms[i].name << ":" << facts << "\n";
-          }
-        }
+        printRow(row, options, out, headerDone);
         out.flush();
       }
     }

@@ -12,6 +12,7 @@
 #include "geometry/obstacles.hpp"
 #include "geometry/signed_distance.hpp"
 #include "models/bswarm/interaction.hpp"
+#include "models/params_util.hpp"
 #include "orca/orca.hpp"
 #include "spatial/uniform_grid.hpp"
 
@@ -26,21 +27,6 @@ constexpr double kPi = 3.14159265358979323846;
 
 std::string dimsText(const std::array<int, 3>& n) {
   return std::to_string(n[0]) + "x" + std::to_string(n[1]) + "x" + std::to_string(n[2]);
-}
-
-// three integers in [lo, hi] (absent: zeros)
-std::array<int, 3> readCells(JsonReader& r, const std::string& key, int lo, int hi) {
-  const Json* v = r.raw(key);
-  if (!v) return {0, 0, 0};
-  const std::string expected = "an array of 3 integers in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
-  if (!v->is_array() || v->size() != 3) r.failExpected(key, expected, *v);
-  std::array<int, 3> out{};
-  for (std::size_t a = 0; a < 3; ++a) {
-    const Json& c = (*v)[a];
-    if (!c.is_number_integer() || c.get<long long>() < lo || c.get<long long>() > hi) r.failExpected(key, expected, *v);
-    out[a] = static_cast<int>(c.get<long long>());
-  }
-  return out;
 }
 
 // cells covering the domain with edges of about `edge`, each axis in [4, 256], at most maxCells
@@ -542,15 +528,8 @@ BswarmParams readBswarmParams(JsonReader& r, const ModelContext& context) {
     p.scale = nz.number("scale", p.scale, Range::positive());
     p.noiseUnit = nz.number("unit", p.noiseUnit, Range::positive());
     d.gain = nz.number("gain", d.gain, Range::nonNegative());
-    const Json* seeds = nz.raw("seeds");
-    if (seeds) {
-      if (!seeds->is_array() || seeds->size() != 3) nz.failExpected("seeds", "an array of 3 integers >= 0", *seeds);
-      for (std::size_t a = 0; a < 3; ++a) {
-        if (!(*seeds)[a].is_number_unsigned()) nz.failExpected("seeds", "an array of 3 integers >= 0", *seeds);
-        p.seeds[a] = (*seeds)[a].get<std::uint64_t>();
-      }
-    }
-    p.noiseCells = readCells(nz, "cells", 2, 1024);
+    readSeeds(nz, "seeds", p.seeds);
+    p.noiseCells = readCells(nz, "cells", false, 2, 1024);
     nz.finish();
   }
   for (JsonReader& s : r.objectArray("stimuli", false, 0)) {
@@ -593,7 +572,7 @@ BswarmParams readBswarmParams(JsonReader& r, const ModelContext& context) {
     p.maxSpeed = o.number("max_speed", p.maxSpeed, Range::positive());
     o.finish();
   }
-  p.sdfCells = readCells(r, "sdf_cells", 2, 1024);
+  p.sdfCells = readCells(r, "sdf_cells", false, 2, 1024);
   p.theta = r.number("far_field_theta", p.theta, Range::closed(0.0, 2.0));
   // schedule: [{"time": t, "<param>": value, ...}, ...]; each parameter interpolates between the keys naming it
   std::vector<JsonReader> keys = r.objectArray("schedule", false, 0);

@@ -13,6 +13,7 @@
 #include "geometry/obstacles.hpp"
 #include "geometry/signed_distance.hpp"
 #include "models/field/mde.hpp"
+#include "models/params_util.hpp"
 #include "spatial/uniform_grid.hpp"
 
 namespace swarmsim {
@@ -24,25 +25,6 @@ double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock:
 
 std::string dimsText(const std::array<int, 3>& n) {
   return std::to_string(n[0]) + "x" + std::to_string(n[1]) + "x" + std::to_string(n[2]);
-}
-
-// three integers in [lo, hi]
-std::array<int, 3> readCells(JsonReader& r, const std::string& key, bool required, int lo, int hi) {
-  const Json* v = r.raw(key);
-  if (!v) {
-    if (required)
-      r.failMissing(key, "an array of 3 integers in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
-    return {0, 0, 0};
-  }
-  const std::string expected = "an array of 3 integers in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
-  if (!v->is_array() || v->size() != 3) r.failExpected(key, expected, *v);
-  std::array<int, 3> out{};
-  for (std::size_t a = 0; a < 3; ++a) {
-    const Json& c = (*v)[a];
-    if (!c.is_number_integer() || c.get<long long>() < lo || c.get<long long>() > hi) r.failExpected(key, expected, *v);
-    out[a] = static_cast<int>(c.get<long long>());
-  }
-  return out;
 }
 
 GoalSpec readGoal(JsonReader g) {
@@ -500,14 +482,7 @@ FieldParams readFieldParams(JsonReader& r, const ModelContext& context) {
     p.noise = type == "curl" ? NoiseKind::kCurl : type == "perlin" ? NoiseKind::kPerlin : NoiseKind::kWhite;
     p.scale = nz.number("scale", p.scale, Range::positive());
     p.gain = nz.number("gain", p.gain, Range::nonNegative());
-    const Json* seeds = nz.raw("seeds");
-    if (seeds) {
-      if (!seeds->is_array() || seeds->size() != 3) nz.failExpected("seeds", "an array of 3 integers >= 0", *seeds);
-      for (std::size_t a = 0; a < 3; ++a) {
-        if (!(*seeds)[a].is_number_unsigned()) nz.failExpected("seeds", "an array of 3 integers >= 0", *seeds);
-        p.seeds[a] = (*seeds)[a].get<std::uint64_t>();
-      }
-    }
+    readSeeds(nz, "seeds", p.seeds);
     p.noiseCells = readCells(nz, "cells", false, 2, 1024);
     if (p.noiseCells[0] == 0) {
       // default: three samples per noise unit (l / scale), within [4, 256] per axis and 8M cells

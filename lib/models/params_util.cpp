@@ -1,0 +1,32 @@
+#include "models/params_util.hpp"
+
+namespace swarmsim {
+
+std::array<int, 3> readCells(JsonReader& r, const std::string& key, bool required, int lo, int hi) {
+  const std::string expected = "an array of 3 integers in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+  const Json* v = r.raw(key);
+  if (!v) {
+    if (required) r.failMissing(key, expected);
+    return {0, 0, 0};
+  }
+  if (!v->is_array() || v->size() != 3) r.failExpected(key, expected, *v);
+  std::array<int, 3> out{};
+  for (std::size_t a = 0; a < 3; ++a) {
+    const Json& c = (*v)[a];
+    if (!c.is_number_integer() || c.get<long long>() < lo || c.get<long long>() > hi) r.failExpected(key, expected, *v);
+    out[a] = static_cast<int>(c.get<long long>());
+  }
+  return out;
+}
+
+void readSeeds(JsonReader& r, const std::string& key, std::array<std::uint64_t, 3>& seeds) {
+  const Json* v = r.raw(key);
+  if (!v) return;
+  if (!v->is_array() || v->size() != 3) r.failExpected(key, "an array of 3 integers >= 0", *v);
+  for (std::size_t a = 0; a < 3; ++a) {
+    if (!(*v)[a].is_number_unsigned()) r.failExpected(key, "an array of 3 integers >= 0", *v);
+    seeds[a] = (*v)[a].get<std::uint64_t>();
+  }
+}
+
+}  // namespace swarmsim
