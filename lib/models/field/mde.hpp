@@ -21,6 +21,28 @@
 
 namespace swarmsim {
 
+#if defined(__SSE2__)
+// Four candidates at once: from their offsets d = p_j - q, the weights w with
+// push contribution -d w (w = (d_min - |d|) / (2 |d|) where 0 < |d| < d_min,
+// else 0), the mask of those lanes and the mask of |d| = 0.
+struct MdeLanes {
+  __m128 md, md2, half, zero, tiny;
+  explicit MdeLanes(float minDistance)
+      : md(_mm_set1_ps(minDistance)),
+        md2(_mm_set1_ps(minDistance * minDistance)),
+        half(_mm_set1_ps(0.5f)),
+        zero(_mm_setzero_ps()),
+        tiny(_mm_set1_ps(1e-30f)) {}
+  __m128 weights(__m128 dx, __m128 dy, __m128 dz, __m128& near, __m128& coincident) const {
+    const __m128 d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
+    near = _mm_and_ps(_mm_cmplt_ps(d2, md2), _mm_cmpgt_ps(d2, zero));
+    coincident = _mm_cmpeq_ps(d2, zero);
+    const __m128 d = _mm_sqrt_ps(d2);
+    return _mm_and_ps(near, _mm_div_ps(_mm_mul_ps(half, _mm_sub_ps(md, d)), _mm_max_ps(d, tiny)));
+  }
+};
+#endif
+
 class MdePush {
  public:
   explicit MdePush(float minDistance) : md_(minDistance), md2_(minDistance * minDistance) {}
@@ -43,21 +65,18 @@ class MdePush {
     std::uint32_t j = b;
 #if defined(__SSE2__)
     const __m128 vqx = _mm_set1_ps(qx_), vqy = _mm_set1_ps(qy_), vqz = _mm_set1_ps(qz_);
-    const __m128 vmd = _mm_set1_ps(md_), vmd2 = _mm_set1_ps(md2_), half = _mm_set1_ps(0.5f);
-    const __m128 zero = _mm_setzero_ps(), tiny = _mm_set1_ps(1e-30f);
+    const MdeLanes lanes(md_);
     for (; j + 4 <= e; j += 4) {
       const __m128 dx = _mm_sub_ps(_mm_loadu_ps(x + j), vqx);
       const __m128 dy = _mm_sub_ps(_mm_loadu_ps(y + j), vqy);
       const __m128 dz = _mm_sub_ps(_mm_loadu_ps(z + j), vqz);
-      const __m128 d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
-      const __m128 near = _mm_and_ps(_mm_cmplt_ps(d2, vmd2), _mm_cmpgt_ps(d2, zero));
-      const __m128 d = _mm_sqrt_ps(d2);
-      const __m128 w = _mm_and_ps(near, _mm_div_ps(_mm_mul_ps(half, _mm_sub_ps(vmd, d)), _mm_max_ps(d, tiny)));
+      __m128 near, coincident;
+      const __m128 w = lanes.weights(dx, dy, dz, near, coincident);
       sx_ = _mm_sub_ps(sx_, _mm_mul_ps(dx, w));
       sy_ = _mm_sub_ps(sy_, _mm_mul_ps(dy, w));
       sz_ = _mm_sub_ps(sz_, _mm_mul_ps(dz, w));
       sh_ = _mm_sub_epi32(sh_, _mm_castps_si128(near));
-      s0_ = _mm_sub_epi32(s0_, _mm_castps_si128(_mm_cmpeq_ps(d2, zero)));
+      s0_ = _mm_sub_epi32(s0_, _mm_castps_si128(coincident));
     }
 #endif
     for (; j < e; ++j) {
@@ -132,18 +151,15 @@ inline bool mdeWithinRun(const float* x, const float* y, const float* z, std::ui
     // four pairs at a time (SSE2 is part of every x86-64 CPU)
     {
       const __m128 vqx = _mm_set1_ps(qx), vqy = _mm_set1_ps(qy), vqz = _mm_set1_ps(qz);
-      const __m128 vmd = _mm_set1_ps(md), vmd2 = _mm_set1_ps(md2), half = _mm_set1_ps(0.5f);
-      const __m128 zero = _mm_setzero_ps(), tiny = _mm_set1_ps(1e-30f);
-      __m128 sx = zero, sy = zero, sz = zero;
+      const MdeLanes lanes(md);
+      __m128 sx = _mm_setzero_ps(), sy = _mm_setzero_ps(), sz = _mm_setzero_ps();
       __m128i sh = _mm_setzero_si128(), s0 = _mm_setzero_si128();
       for (; j + 4 <= e; j += 4) {
         const __m128 dx = _mm_sub_ps(_mm_loadu_ps(x + j), vqx);
         const __m128 dy = _mm_sub_ps(_mm_loadu_ps(y + j), vqy);
         const __m128 dz = _mm_sub_ps(_mm_loadu_ps(z + j), vqz);
-        const __m128 d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
-        const __m128 near = _mm_and_ps(_mm_cmplt_ps(d2, vmd2), _mm_cmpgt_ps(d2, zero));
-        const __m128 d = _mm_sqrt_ps(d2);
-        const __m128 w = _mm_and_ps(near, _mm_div_ps(_mm_mul_ps(half, _mm_sub_ps(vmd, d)), _mm_max_ps(d, tiny)));
+        __m128 near, coincident;
+        const __m128 w = lanes.weights(dx, dy, dz, near, coincident);
         const __m128 fx = _mm_mul_ps(dx, w), fy = _mm_mul_ps(dy, w), fz = _mm_mul_ps(dz, w);
         sx = _mm_sub_ps(sx, fx);
         sy = _mm_sub_ps(sy, fy);
@@ -155,7 +171,7 @@ inline bool mdeWithinRun(const float* x, const float* y, const float* z, std::ui
         __m128i* hj = reinterpret_cast<__m128i*>(hits + j);
         _mm_storeu_si128(hj, _mm_sub_epi32(_mm_loadu_si128(hj), nearMask));
         sh = _mm_sub_epi32(sh, nearMask);
-        s0 = _mm_sub_epi32(s0, _mm_castps_si128(_mm_cmpeq_ps(d2, zero)));
+        s0 = _mm_sub_epi32(s0, _mm_castps_si128(coincident));
       }
       alignas(16) float lx[4], ly[4], lz[4];
       alignas(16) std::int32_t lh[4], l0[4];
