@@ -738,4 +738,12 @@ Vec3 normalAt(const Grid3<float>& sdf, const Vec3& p) {
   return normalizedOrZero(grad);
 }
 
+void addBoxWalls(Grid3<float>& distance, const Aabb& box) {
+  parallelFor(distance.data.size(), [&](std::size_t c) {
+    const Vec3d p = distance.spec.centerOfIndex(c);
+    const double wall = std::min((p - box.min).minCoeff(), (box.max - p).minCoeff());
+    distance.data[c] = std::min(distance.data[c], static_cast<float>(wall));
+  });
+}
+
 }  // namespace swarmsim

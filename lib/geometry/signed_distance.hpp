@@ -55,6 +55,7 @@
 // reading and writing only its own cells, so the result does not depend on
 // the number of threads.
 #include "core/vec.hpp"
+#include "core/world.hpp"
 #include "fields/grid3.hpp"
 #include "geometry/obstacles.hpp"
 
@@ -69,6 +70,10 @@ constexpr float kSdfFar = 1e30f;
 // edges, or a mesh with a vertex index out of range (programming errors:
 // loadObj checks its meshes).
 Grid3<float> signedDistance(const Obstacles& obstacles, const GridSpec& spec);
+
+// the box's walls as boundaries too: each cell becomes min(its value, the
+// distance from its centre to the nearest face of `box`) (inside the box)
+void addBoxWalls(Grid3<float>& distance, const Aabb& box);
 
 // Outward unit normal at p: the normalised central-difference gradient of the
 // trilinear SDF (steps of half a cell per axis); zero where it is degenerate.

@@ -1,5 +1,7 @@
 #include "models/params_util.hpp"
 
+#include <cmath>
+
 namespace swarmsim {
 
 std::array<int, 3> readCells(JsonReader& r, const std::string& key, bool required, int lo, int hi) {
@@ -26,6 +28,28 @@ void readSeeds(JsonReader& r, const std::string& key, std::array<std::uint64_t, 
   for (std::size_t a = 0; a < 3; ++a) {
     if (!(*v)[a].is_number_unsigned()) r.failExpected(key, "an array of 3 integers >= 0", *v);
     seeds[a] = (*v)[a].get<std::uint64_t>();
+  }
+}
+
+void readKeyframes(JsonReader& r, std::vector<double>& times, std::vector<Vec3d>& centers) {
+  for (JsonReader& k : r.objectArray("keyframes", false, 0)) {
+    const double t = k.requireNumber("time", Range::nonNegative());
+    if (!times.empty() && !(t > times.back())) k.failExpected("time", "a time later than the previous keyframe's", t);
+    times.push_back(t);
+    centers.push_back(k.requireVec3("center"));
+    k.finish();
+  }
+}
+
+std::array<int, 3> cellsForEdge(const Aabb& domain, double edge, double maxCells) {
+  std::array<int, 3> n{};
+  for (double factor = 1.0;; factor *= 1.05) {
+    double total = 1.0;
+    for (int a = 0; a < 3; ++a) {
+      n[a] = std::clamp(static_cast<int>(std::ceil(domain.extent()[a] / (edge * factor))), 4, 256);
+      total *= n[a];
+    }
+    if (total <= maxCells) return n;
   }
 }
 

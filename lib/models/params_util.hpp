@@ -1,10 +1,13 @@
 #pragma once
 // Parameter readers shared by the models' parsers.
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "core/json_reader.hpp"
+#include "core/world.hpp"
 
 namespace swarmsim {
 
@@ -13,5 +16,25 @@ std::array<int, 3> readCells(JsonReader& r, const std::string& key, bool require
 
 // three integers >= 0 (Perlin seeds); absent: `seeds` unchanged
 void readSeeds(JsonReader& r, const std::string& key, std::array<std::uint64_t, 3>& seeds);
+
+// "keyframes": [{"time": t, "center": [x, y, z]}, ...] with increasing times >= 0
+// appended to times/centers (absent: nothing)
+void readKeyframes(JsonReader& r, std::vector<double>& times, std::vector<Vec3d>& centers);
+
+// piecewise linear in time between keys, held before the first and after the last
+// (times increasing, values non-empty and of the same size)
+template <typename T>
+T interpolateKeys(const std::vector<double>& times, const std::vector<T>& values, double t) {
+  if (times.size() <= 1 || t <= times.front()) return values.front();
+  if (t >= times.back()) return values.back();
+  const auto it = std::upper_bound(times.begin(), times.end(), t);
+  const std::size_t b = static_cast<std::size_t>(it - times.begin()), a = b - 1;
+  const double f = (t - times[a]) / (times[b] - times[a]);
+  return values[a] + f * (values[b] - values[a]);
+}
+
+// cells per axis covering `domain` with edges of about `edge` (each axis in [4, 256]),
+// the edge widened in steps of 5 % until there are at most maxCells
+std::array<int, 3> cellsForEdge(const Aabb& domain, double edge, double maxCells);
 
 }  // namespace swarmsim

@@ -110,24 +110,16 @@ class UniformGrid {
   // grid point (d2 = 0). Any r works; r <= minCell visits at most 27 cells.
   template <typename F>
   void forEachNeighbor(float qx, float qy, float qz, float r, F&& f) const {
-    if (order_.empty()) return;
     const float r2 = r * r;
-    int lo[3], hi[3];
-    cellRange(qx, qy, qz, r, lo, hi);
-    for (int cz = lo[2]; cz <= hi[2]; ++cz) {
-      for (int cy = lo[1]; cy <= hi[1]; ++cy) {
-        const std::size_t row = (static_cast<std::size_t>(cz) * dims_[1] + cy) * dims_[0];
-        const std::uint32_t begin = start_[row + lo[0]];
-        const std::uint32_t end = start_[row + hi[0] + 1];
-        // one plain pass: rows are short and hits rare, so a single loop (one
-        // exit misprediction per row) beats blocked, branch-free filtering here
-        for (std::uint32_t k = begin; k < end; ++k) {
-          const float dx = sx_[k] - qx, dy = sy_[k] - qy, dz = sz_[k] - qz;
-          const float d2 = dx * dx + dy * dy + dz * dz;
-          if (d2 <= r2) f(k, dx, dy, dz, d2);
-        }
+    forEachRun(qx, qy, qz, r, [&](std::uint32_t begin, std::uint32_t end) {
+      // one plain pass: rows are short and hits rare, so a single loop (one
+      // exit misprediction per row) beats blocked, branch-free filtering here
+      for (std::uint32_t k = begin; k < end; ++k) {
+        const float dx = sx_[k] - qx, dy = sy_[k] - qy, dz = sz_[k] - qz;
+        const float d2 = dx * dx + dy * dy + dz * dz;
+        if (d2 <= r2) f(k, dx, dy, dz, d2);
       }
-    }
+    });
   }
 
  private:

@@ -29,34 +29,10 @@ std::string dimsText(const std::array<int, 3>& n) {
   return std::to_string(n[0]) + "x" + std::to_string(n[1]) + "x" + std::to_string(n[2]);
 }
 
-// cells covering the domain with edges of about `edge`, each axis in [4, 256], at most maxCells
-std::array<int, 3> cellsFor(const Aabb& dom, double edge, double maxCells) {
-  std::array<int, 3> n{};
-  double factor = 1.0;
-  for (;;) {
-    double total = 1.0;
-    for (int a = 0; a < 3; ++a) {
-      n[a] = std::clamp(static_cast<int>(std::ceil(dom.extent()[a] / (edge * factor))), 4, 256);
-      total *= n[a];
-    }
-    if (total <= maxCells) return n;
-    factor *= 1.05;
-  }
-}
-
 Keyed3 readPath(JsonReader& r, const char* what) {
   Keyed3 path;
-  std::vector<JsonReader> keys = r.objectArray("keyframes", false, 0);
-  for (std::size_t i = 0; i < keys.size(); ++i) {
-    const double t = keys[i].requireNumber("time", Range::nonNegative());
-    if (!path.times.empty() && !(t > path.times.back())) {
-      keys[i].failExpected("time", "a time later than the previous keyframe's", t);
-    }
-    path.times.push_back(t);
-    path.values.push_back(keys[i].requireVec3("center"));
-    keys[i].finish();
-  }
-  if (keys.empty()) {
+  readKeyframes(r, path.times, path.values);
+  if (path.times.empty()) {
     path.times.push_back(0.0);
     path.values.push_back(r.requireVec3("center"));
   } else if (r.has("center")) {
@@ -122,8 +98,9 @@ class BswarmModel final : public Model {
     // distance to obstacles and domain walls, for ORCA's obstacle constraints
     sdfSpec_ = GridSpec::covering(
         domain_.min, domain_.max,
-        p_.sdfCells[0] > 0 ? p_.sdfCells : cellsFor(domain_, domain_.extent().maxCoeff() / 128.0, 4e6));
-    sdf_ = withWalls(signedDistance(obs, sdfSpec_));
+        p_.sdfCells[0] > 0 ? p_.sdfCells : cellsForEdge(domain_, domain_.extent().maxCoeff() / 128.0, 4e6));
+    sdf_ = signedDistance(obs, sdfSpec_);
+    addBoxWalls(sdf_, domain_);
     tDistance_ = since(t0);
 
     const auto t1 = Clock::now();
@@ -150,9 +127,10 @@ class BswarmModel final : public Model {
         step_ = 0.1 * edge;  // central differences of the potential for the curl
       } else {
         noiseSpec_ = GridSpec::covering(domain_.min, domain_.max,
-                                        p_.noiseCells[0] > 0 ? p_.noiseCells : cellsFor(domain_, edge, 8e6));
+                                        p_.noiseCells[0] > 0 ? p_.noiseCells : cellsForEdge(domain_, edge, 8e6));
         if (p_.noise == BswarmNoise::kCurl) {
-          const Grid3<float> boundary = withWalls(signedDistance(obs, noiseSpec_));
+          Grid3<float> boundary = signedDistance(obs, noiseSpec_);
+          addBoxWalls(boundary, domain_);
           noise_ = curl(noisePotential(noiseSpec_, np, &boundary));
         } else {
           noise_ = perlinVelocity(noiseSpec_, np);
@@ -168,6 +146,9 @@ class BswarmModel final : public Model {
     orcaParams_.timeHorizonObstacle = static_cast<float>(p_.timeHorizonObstacle);
     orcaParams_.maxSpeed = static_cast<float>(p_.maxSpeed);
     orcaObstacles_.sdf = &sdf_;
+    // escape angles are needed only when something can be escaped from
+    needEscapeAngle_ = p_.attached.enabled && p_.attached.kind == StimulusSpec::Kind::kPredator;
+    for (const auto& st : p_.stimuli) needEscapeAngle_ = needEscapeAngle_ || st.kind == StimulusSpec::Kind::kPredator;
   }
 
   std::vector<std::string> statNames() const override {
@@ -186,7 +167,8 @@ class BswarmModel final : public Model {
                         : p_.noise == BswarmNoise::kPerlin ? "perlin"
                         : p_.noise == BswarmNoise::kWhite  ? "white"
                                                            : "gaussian";
-    const double steps = static_cast<double>(std::max<std::size_t>(1, totalAgentSteps_));
+    // timings per agent-step, after the first step (which sizes every buffer)
+    const double steps = static_cast<double>(std::max<std::size_t>(1, timedAgentSteps_));
     return {{"noise", noise},
             {"noise_grid", direct_                                                              ? "direct"
                            : p_.noise == BswarmNoise::kCurl || p_.noise == BswarmNoise::kPerlin ? dimsText(noiseSpec_.n)
@@ -200,7 +182,8 @@ class BswarmModel final : public Model {
             {"ns_orca_neighbours", 1e9 * tOrcaNeighbours_ / steps},
             {"ns_orca_lp", 1e9 * tOrcaLp_ / steps},
             {"ns_orca", 1e9 * (tOrcaNeighbours_ + tOrcaLp_) / steps},
-            {"infeasible_percent", 100.0 * static_cast<double>(totalInfeasible_) / steps}};
+            {"infeasible_percent", 100.0 * static_cast<double>(totalInfeasible_) /
+                                       static_cast<double>(std::max<std::size_t>(1, totalAgentSteps_))}};
   }
 
   void step(const World& world, SwarmState& s, const StepInfo& info) override {
@@ -269,8 +252,7 @@ class BswarmModel final : public Model {
     response.centers = stimulusCenters_.data();
     response.attached = &p_.attached;
     response.escapeAxis = p_.escapeAxis.cast<float>();
-    const bool needEscapeAngle =
-        (p_.attached.enabled && p_.attached.kind == StimulusSpec::Kind::kPredator) || hasPredator();
+
     parallelFor(n, [&](std::size_t k) {
       const Vec3 x(sx[k], sy[k], sz[k]);
       const Vec3 v(vx_[k], vy_[k], vz_[k]);
@@ -279,7 +261,7 @@ class BswarmModel final : public Model {
       if (lambdaRes > 0.0f && (!p_.stimuli.empty() || p_.attached.enabled)) {
         // each insect escapes along its own fixed rotation of the away direction ("a determined direction")
         float theta = 0.0f;
-        if (needEscapeAngle) {
+        if (needEscapeAngle_) {
           AgentRng rng(world.seed, 0, ids_[k], RngPurpose::kEscape, info.swarmIndex);
           theta = rng.uniform(thetaMin, thetaMax);
         }
@@ -334,6 +316,11 @@ class BswarmModel final : public Model {
     lastPolarisation_ = polarisation(s.vx.data(), s.vy.data(), s.vz.data(), n, &polarParts_);
     lastStimulusDistance_ = nearestToStimulus(s);
     frameAgentSteps_ += n;
+    if (totalAgentSteps_ == 0) {
+      tGrid_ = tForces_ = tOrcaNeighbours_ = tOrcaLp_ = 0.0;  // the first step is not timed
+    } else {
+      timedAgentSteps_ += n;
+    }
     totalAgentSteps_ += n;
   }
 
@@ -350,23 +337,6 @@ class BswarmModel final : public Model {
       d[a] = ((*potential_)(p + e, &sdf_) - (*potential_)(p - e, &sdf_)) / (2.0 * step_);
     }
     return Vec3d(d[1].z() - d[2].y(), d[2].x() - d[0].z(), d[0].y() - d[1].x()).cast<float>();
-  }
-
-  bool hasPredator() const {
-    for (const auto& st : p_.stimuli) {
-      if (st.kind == StimulusSpec::Kind::kPredator) return true;
-    }
-    return false;
-  }
-
-  // min(distance to the obstacles, distance to the domain walls) at the cell centres
-  Grid3<float> withWalls(Grid3<float> g) const {
-    parallelFor(g.data.size(), [&](std::size_t c) {
-      const Vec3d p = g.spec.centerOfIndex(c);
-      const double wall = std::min((p - domain_.min).minCoeff(), (domain_.max - p).minCoeff());
-      g.data[c] = std::min(g.data[c], static_cast<float>(wall));
-    });
-    return g;
   }
 
   // distance from the first stimulus's surface to the nearest insect (NaN without stimuli); min is exact in any order
@@ -390,6 +360,7 @@ class BswarmModel final : public Model {
   Grid3<float> sdf_;     // obstacles and walls, for ORCA
   Grid3<Vec3> noise_;    // curl noise (or Perlin) with gain 1
   bool direct_ = false;  // no noise grid: evaluated per insect
+  bool needEscapeAngle_ = false;
   std::unique_ptr<NoisePotential> potential_;
   double step_ = 0.0;
   orca::Params orcaParams_;
@@ -409,6 +380,7 @@ class BswarmModel final : public Model {
   double lastPolarisation_ = std::numeric_limits<double>::quiet_NaN();
   double lastStimulusDistance_ = std::numeric_limits<double>::quiet_NaN();
   std::size_t frameInfeasible_ = 0, frameAgentSteps_ = 0, totalInfeasible_ = 0, totalAgentSteps_ = 0;
+  std::size_t timedAgentSteps_ = 0;
 };
 
 }  // namespace
@@ -441,26 +413,11 @@ Vec3 responseForce(const ResponseInputs& in, const Vec3& x, const Vec3& v, float
   return a;
 }
 
-Vec3d Keyed3::at(double t) const {
-  if (times.size() <= 1 || t <= times.front()) return values.front();
-  if (t >= times.back()) return values.back();
-  const auto it = std::upper_bound(times.begin(), times.end(), t);
-  const std::size_t b = static_cast<std::size_t>(it - times.begin()), a = b - 1;
-  const double f = (t - times[a]) / (times[b] - times[a]);
-  return values[a] + f * (values[b] - values[a]);
-}
+Vec3d Keyed3::at(double t) const { return interpolateKeys(times, values, t); }
 
 void BswarmSchedule::apply(double t, BswarmDynamic& d) const {
   for (const Track& tr : tracks) {
-    double v = tr.values.front();
-    if (t >= tr.times.back()) {
-      v = tr.values.back();
-    } else if (t > tr.times.front()) {
-      const auto it = std::upper_bound(tr.times.begin(), tr.times.end(), t);
-      const std::size_t b = static_cast<std::size_t>(it - tr.times.begin()), a = b - 1;
-      const double f = (t - tr.times[a]) / (tr.times[b] - tr.times[a]);
-      v = tr.values[a] + f * (tr.values[b] - tr.values[a]);
-    }
+    const double v = interpolateKeys(tr.times, tr.values, t);
     for (const auto& field : dynamicFields()) {
       if (tr.name == field.name) d.*(field.field) = v;
     }
@@ -475,7 +432,7 @@ double polarisation(const float* vx, const float* vy, const float* vz, std::size
   std::vector<Vec3d> local;
   std::vector<Vec3d>& part = scratch ? *scratch : local;
   part.assign(blocks, Vec3d::Zero());
-  parallelForDynamic(blocks, 1, [&](std::size_t b) {
+  const auto blockSum = [&](std::size_t b) {
     Vec3d sum = Vec3d::Zero();
     for (std::size_t i = b * kBlock; i < std::min(n, (b + 1) * kBlock); ++i) {
       const Vec3d v(vx[i], vy[i], vz[i]);
@@ -483,7 +440,12 @@ double polarisation(const float* vx, const float* vy, const float* vz, std::size
       if (len > 0.0) sum += v / len;
     }
     part[b] = sum;
-  });
+  };
+  if (blocks == 1) {  // a small swarm: not worth waking the team
+    blockSum(0);
+  } else {
+    parallelForDynamic(blocks, 1, blockSum);
+  }
   Vec3d total = Vec3d::Zero();
   for (const Vec3d& p : part) total += p;
   return total.norm() / static_cast<double>(n);

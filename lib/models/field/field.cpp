@@ -32,19 +32,10 @@ GoalSpec readGoal(JsonReader g) {
   const std::string type = g.choice("type", "", {"sphere", "box"});
   if (type.empty()) g.failMissing("type", "\"sphere\" or \"box\"");
   // keyframes first: with them, the goal's own centre is optional (the first key's)
-  std::vector<JsonReader> keys = g.objectArray("keyframes", false, 0);
-  for (std::size_t i = 0; i < keys.size(); ++i) {
-    const double t = keys[i].requireNumber("time", Range::nonNegative());
-    if (!goal.keyTimes.empty() && !(t > goal.keyTimes.back())) {
-      keys[i].failExpected("time", "a time later than the previous keyframe's", t);
-    }
-    goal.keyTimes.push_back(t);
-    goal.keyCenters.push_back(keys[i].requireVec3("center"));
-    keys[i].finish();
-  }
+  readKeyframes(g, goal.keyTimes, goal.keyCenters);
   if (type == "sphere") {
     goal.kind = GoalSpec::Kind::kSphere;
-    goal.center = keys.empty() ? g.requireVec3("center") : g.vec3("center", goal.keyCenters.front());
+    goal.center = goal.keyCenters.empty() ? g.requireVec3("center") : g.vec3("center", goal.keyCenters.front());
     goal.radius = g.requireNumber("radius", Range::positive());
   } else {
     goal.kind = GoalSpec::Kind::kBox;
@@ -110,11 +101,7 @@ class FieldModel final : public Model {
       if (p_.noise == NoiseKind::kCurl) {
         // boundary distance: obstacles and the domain's walls
         Grid3<float> boundary = sdfNoise;
-        parallelFor(boundary.data.size(), [&](std::size_t c) {
-          const Vec3d centre = noiseSpec_.centerOfIndex(c);
-          const double wall = std::min((centre - domain_.min).minCoeff(), (domain_.max - centre).minCoeff());
-          boundary.data[c] = std::min(boundary.data[c], static_cast<float>(wall));
-        });
+        addBoxWalls(boundary, domain_);
         noise_ = curl(noisePotential(noiseSpec_, np, &boundary));
       } else {
         noise_ = perlinVelocity(noiseSpec_, np);
@@ -452,13 +439,7 @@ double bell(double r) {
 }
 
 Vec3d GoalSpec::centerAt(double t) const {
-  if (keyTimes.empty()) return center;
-  if (t <= keyTimes.front()) return keyCenters.front();
-  if (t >= keyTimes.back()) return keyCenters.back();
-  const auto it = std::upper_bound(keyTimes.begin(), keyTimes.end(), t);
-  const std::size_t b = static_cast<std::size_t>(it - keyTimes.begin()), a = b - 1;
-  const double f = (t - keyTimes[a]) / (keyTimes[b] - keyTimes[a]);
-  return keyCenters[a] + f * (keyCenters[b] - keyCenters[a]);
+  return keyTimes.empty() ? center : interpolateKeys(keyTimes, keyCenters, t);
 }
 
 bool GoalSpec::contains(const Vec3d& p, const Vec3d& c) const {
@@ -486,17 +467,7 @@ FieldParams readFieldParams(JsonReader& r, const ModelContext& context) {
     p.noiseCells = readCells(nz, "cells", false, 2, 1024);
     if (p.noiseCells[0] == 0) {
       // default: three samples per noise unit (l / scale), within [4, 256] per axis and 8M cells
-      const double h = unit / (3.0 * p.scale);
-      double factor = 1.0;
-      for (;;) {
-        double total = 1.0;
-        for (int a = 0; a < 3; ++a) {
-          p.noiseCells[a] = std::clamp(static_cast<int>(std::ceil(dom.extent()[a] / (h * factor))), 4, 256);
-          total *= p.noiseCells[a];
-        }
-        if (total <= 8e6) break;
-        factor *= 1.05;
-      }
+      p.noiseCells = cellsForEdge(dom, unit / (3.0 * p.scale), 8e6);
     }
     nz.resolve("cells", Json::array({p.noiseCells[0], p.noiseCells[1], p.noiseCells[2]}));
     if (static_cast<double>(p.noiseCells[0]) * p.noiseCells[1] * p.noiseCells[2] > 64e6) {

@@ -21,6 +21,16 @@
 
 namespace swarmsim {
 
+// One candidate at squared distance d2: true if 0 < d < d_min, with the weight
+// w = (d_min - d) / (2 d) of its push contribution -offset w (the scalar
+// counterpart of MdeLanes::weights, for the tails of the SIMD loops).
+inline bool mdeWeight(float d2, float md, float md2, float& w) {
+  if (!(d2 < md2 && d2 > 0.0f)) return false;
+  const float d = std::sqrt(d2);
+  w = 0.5f * (md - d) / d;
+  return true;
+}
+
 #if defined(__SSE2__)
 // Four candidates at once: from their offsets d = p_j - q, the weights w with
 // push contribution -d w (w = (d_min - |d|) / (2 |d|) where 0 < |d| < d_min,
@@ -83,9 +93,8 @@ class MdePush {
       const float dx = x[j] - qx_, dy = y[j] - qy_, dz = z[j] - qz_;
       const float d2 = dx * dx + dy * dy + dz * dz;
       zeros_ += d2 == 0.0f ? 1 : 0;
-      if (!(d2 < md2_ && d2 > 0.0f)) continue;
-      const float d = std::sqrt(d2);
-      const float w = 0.5f * (md_ - d) / d;
+      float w;
+      if (!mdeWeight(d2, md_, md2_, w)) continue;
       px_ -= dx * w;
       py_ -= dy * w;
       pz_ -= dz * w;
@@ -193,9 +202,8 @@ inline bool mdeWithinRun(const float* x, const float* y, const float* z, std::ui
       const float dx = x[j] - qx, dy = y[j] - qy, dz = z[j] - qz;
       const float d2 = dx * dx + dy * dy + dz * dz;
       zeros += d2 == 0.0f ? 1 : 0;
-      if (!(d2 < md2 && d2 > 0.0f)) continue;
-      const float d = std::sqrt(d2);
-      const float w = 0.5f * (md - d) / d;
+      float w;
+      if (!mdeWeight(d2, md, md2, w)) continue;
       const float fx = dx * w, fy = dy * w, fz = dz * w;
       ax -= fx;
       ay -= fy;
