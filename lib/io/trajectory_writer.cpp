@@ -21,8 +21,8 @@ constexpr hsize_t kChunkAgents = 87381;
 
 H5Handle createExtendible(hid_t group, const char* name, hid_t type, int rank, const hsize_t* dims,
                           const hsize_t* chunk, int compression) {
-  hsize_t maxdims[3] = {H5S_UNLIMITED, dims[1], dims[2]};
-  if (rank == 1) maxdims[0] = H5S_UNLIMITED;
+  hsize_t maxdims[3] = {H5S_UNLIMITED, 0, 0};
+  for (int a = 1; a < rank; ++a) maxdims[a] = dims[a];
   H5Handle space(H5Screate_simple(rank, dims, maxdims), H5Sclose);
   H5Handle props(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
   H5Pset_chunk(props, rank, chunk);
