@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <hdf5.h>
 #include <cstdio>
 #include <iostream>
 #include <sstream>
@@ -48,6 +49,9 @@ std::vector<std::string> overridesFrom(const std::vector<std::string>& sets, lon
 }  // namespace
 
 int main(int argc, char** argv) {
+  // HDF5's own exit handler would close files a failed write left open, and can
+  // crash doing so (a full disk); our handles close everything that is closable
+  H5dont_atexit();
   CLI::App app{"swarmsim " + std::string(kVersion) +
                ": batch simulator of flying insect swarms.\n"
                "Exit codes: 0 success, 1 other error, 2 invalid input (arguments, scenario, referenced files),\n"
@@ -69,7 +73,13 @@ int main(int argc, char** argv) {
   run->add_option("--seed", seed, "Random seed (overrides the scenario)")->check(CLI::NonNegativeNumber);
   run->add_option("--set", sets, "Override a scenario value, e.g. --set swarms[0].count=5000 (repeatable)")
       ->type_name("PATH=VALUE");
-  run->add_flag("--force", force, "Overwrite an existing output file");
+  run->add_flag("--force", force, "Overwrite an existing output file (a swarmsim output or an empty file)");
+  bool resume = false;
+  double checkpointSeconds = 30.0;
+  run->add_flag("--resume", resume,
+                "Continue an interrupted run of this output from its last checkpoint (or start it if there is none)");
+  run->add_option("--checkpoint-every", checkpointSeconds, "Seconds of wall time between checkpoints (0: every frame)")
+      ->check(CLI::Range(0.0, 1e9));
   run->add_flag("--quiet", quiet, "No summary line");
   run->add_flag("--progress", progress, "Progress on stderr (default when stderr is a terminal)");
 
@@ -137,6 +147,8 @@ int main(int argc, char** argv) {
       RunOptions opt;
       opt.output = outPath;
       opt.force = force;
+      opt.resume = resume;
+      opt.checkpointSeconds = checkpointSeconds;
       opt.quiet = quiet;
       opt.progress = progress || isatty(STDERR_FILENO);
       installStopHandlers();

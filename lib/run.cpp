@@ -1,17 +1,24 @@
 #include "run.hpp"
 
+#include <signal.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <optional>
 
 #include "core/error.hpp"
 #include "core/parallel.hpp"
 #include "core/rng.hpp"
+#include "io/output_target.hpp"
+#include "io/trajectory_reader.hpp"
 #include "io/trajectory_writer.hpp"
 
 namespace swarmsim {
@@ -19,15 +26,19 @@ namespace swarmsim {
 namespace {
 
 std::atomic<bool> gStop{false};
+std::atomic<bool> gCheckpointNow{false};
 
-// first signal: stop at the next frame boundary; a second one: default action
-// (the run dies, leaving only its temporary file, never a half-written output)
+// first stop signal: stop after the step in progress; a second one: default
+// action (the run dies, leaving its partial file and last checkpoint, which
+// --resume continues; never a half-written output)
 extern "C" void onStopSignal(int sig) {
   if (gStop.exchange(true)) {
     std::signal(sig, SIG_DFL);
     std::raise(sig);
   }
 }
+
+extern "C" void onCheckpointSignal(int) { gCheckpointNow.store(true); }
 
 using Clock = std::chrono::steady_clock;
 double secondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
@@ -62,11 +73,17 @@ std::string formatBytes(std::uintmax_t b) {
 
 void installStopHandlers() {
   gStop.store(false);
+  gCheckpointNow.store(false);
   struct sigaction sa {};
   sa.sa_handler = onStopSignal;
   sigemptyset(&sa.sa_mask);
-  sigaction(SIGINT, &sa, nullptr);
-  sigaction(SIGTERM, &sa, nullptr);
+  for (int sig : {SIGINT, SIGTERM, SIGHUP}) sigaction(sig, &sa, nullptr);
+  struct sigaction ck {};
+  ck.sa_handler = onCheckpointSignal;
+  sigemptyset(&ck.sa_mask);
+  ck.sa_flags = SA_RESTART;
+  sigaction(SIGUSR1, &ck, nullptr);
+  std::signal(SIGXFSZ, SIG_IGN);
 }
 
 SwarmState spawnSwarm(const SwarmSpec& spec, std::uint64_t seed, std::uint32_t swarmIndex) {
@@ -111,63 +128,285 @@ void Simulation::takeFrameStats(std::vector<std::vector<double>>& out) {
   for (std::size_t i = 0; i < models_.size(); ++i) models_[i]->takeFrameStats(out[i]);
 }
 
+Checkpoint Simulation::checkpoint() const {
+  Checkpoint c;
+  c.step = step_;
+  c.swarms = swarms_;
+  for (const auto& m : models_) {
+    StateOut out;
+    m->saveState(out);
+    c.modelStates.push_back(out.bytes());
+  }
+  return c;
+}
+
+void Simulation::restore(const Checkpoint& c, const std::string& file) {
+  const auto bad = [&](const std::string& why) { return InputError(file + ": checkpoint does not fit the scenario: " + why); };
+  if (c.swarms.size() != swarms_.size() || c.modelStates.size() != models_.size()) throw bad("swarm count");
+  for (std::size_t i = 0; i < swarms_.size(); ++i) {
+    if (c.swarms[i].name != swarms_[i].name || c.swarms[i].size() != swarms_[i].size()) {
+      throw bad("swarm " + std::to_string(i) + " (" + swarms_[i].name + ")");
+    }
+  }
+  for (std::size_t i = 0; i < swarms_.size(); ++i) {
+    swarms_[i] = c.swarms[i];
+    StateIn in(c.modelStates[i]);
+    try {
+      models_[i]->loadState(in, world_);
+    } catch (const std::runtime_error& e) {
+      throw bad("model of swarm " + swarms_[i].name + ": " + e.what());
+    }
+    if (!in.atEnd()) throw bad("model of swarm " + swarms_[i].name + " has trailing state");
+  }
+  step_ = c.step;
+}
+
+namespace {
+
+std::int64_t stat64(const std::string& path) {
+  std::error_code ec;
+  const auto n = std::filesystem::file_size(path, ec);
+  return ec ? -1 : static_cast<std::int64_t>(n);
+}
+
+// temporary files of swarmsim versions before checkpoints (.NAME.tmp-PID) whose
+// process is gone: unusable, so they are removed, and said so
+void removeOldLeftovers(const OutputTarget& target) {
+  namespace fs = std::filesystem;
+  const fs::path p(target.path());
+  const std::string prefix = "." + p.filename().string() + ".tmp-";
+  std::error_code ec;
+  const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.rfind(prefix, 0) != 0 || !it->is_regular_file(ec)) continue;
+    const std::string pidText = name.substr(prefix.size());
+    if (pidText.empty() || pidText.find_first_not_of("0123456789") != std::string::npos || pidText.size() > 9) continue;
+    const pid_t pid = static_cast<pid_t>(std::stol(pidText));
+    if (::kill(pid, 0) == 0 || errno != ESRCH) continue;  // alive (or not ours to judge)
+    std::fprintf(stderr, "swarmsim: note: removing %s (%lld bytes), left by a killed run of an older swarmsim\n",
+                 it->path().c_str(), static_cast<long long>(stat64(it->path().string())));
+    fs::remove(it->path(), ec);
+  }
+}
+
+}  // namespace
+
 RunResult runScenario(const Scenario& scenario, const RunOptions& options) {
   const auto t0 = Clock::now();
   RunResult result;
-  result.path = options.output.empty() ? scenario.output.path : options.output;
+  const std::string requested = options.output.empty() ? scenario.output.path : options.output;
   result.agents = scenario.agentCount();
-  // refuse early, before any precomputation (the writer checks again)
-  std::error_code exists;
-  if (std::filesystem::is_directory(result.path, exists)) {
-    throw OutputError(result.path + ": is a directory (expected an output file path)");
+  // refuse early, before any precomputation: path rules, the lock
+  const OutputTarget target(requested, options.force, options.resume);
+  result.path = target.requested();
+  removeOldLeftovers(target);
+
+  // the file records where it was written
+  Scenario recorded = scenario;
+  recorded.resolved["output"]["path"] = std::filesystem::absolute(target.path()).lexically_normal().string();
+  const std::string recordedJson = recorded.resolved.dump();
+  const auto sameScenario = [&](const std::string& json, const std::string& what) {
+    if (json != recordedJson) {
+      throw InputError(what + ": written by a run of another scenario or other options (--set, --frames, --seed); "
+                       "resume with exactly the same ones, or start again with --force");
+    }
+  };
+
+  // what is there from an interrupted run
+  const bool hasPart = target.partExists(), hasCkpt = target.checkpointExists();
+  enum class Start { kFresh, kReopen, kCopy, kCopyPart } start = Start::kFresh;
+  Checkpoint ckpt;
+  if (options.resume) {
+    if (hasPart && hasCkpt) {
+      ckpt = readCheckpoint(target.checkpointPath());
+      sameScenario(ckpt.scenario, target.checkpointPath());
+      // compressed output allocates as it writes: its frames are copied into a new file instead
+      start = TrajectoryWriter::canReopen(scenario) ? Start::kReopen : Start::kCopyPart;
+    } else if (target.finalExists()) {
+      TrajectoryInfo info;
+      try {
+        info = readTrajectoryInfo(target.path());
+      } catch (const Error& e) {
+        throw OutputError(std::string(e.what()) + "; nothing to resume (use --force to overwrite it)");
+      }
+      sameScenario(info.scenarioJson, target.path());
+      if (info.complete) {
+        target.removeCheckpoint();  // a stale one, if any
+        result.alreadyComplete = true;
+        result.frames = info.frames;
+        std::error_code ec;
+        result.bytes = std::filesystem::file_size(target.path(), ec);
+        if (!options.quiet) std::printf("complete: %s is already complete (%lld frames); nothing to resume\n",
+                                        result.path.c_str(), static_cast<long long>(info.frames));
+        return result;
+      }
+      if (!hasCkpt) {
+        throw OutputError(target.path() + ": interrupted output without a checkpoint beside it (" +
+                          target.checkpointPath() + "): cannot resume; start again with --force");
+      }
+      ckpt = readCheckpoint(target.checkpointPath());
+      sameScenario(ckpt.scenario, target.checkpointPath());
+      if (info.frames != ckpt.frames) {
+        throw InputError(target.checkpointPath() + ": checkpoint is for frame " + std::to_string(ckpt.frames) +
+                         " but " + target.path() + " has " + std::to_string(info.frames) +
+                         " frames: cannot resume; start again with --force");
+      }
+      start = Start::kCopy;
+    } else if (hasPart) {
+      std::fprintf(stderr, "swarmsim: note: removing %s: its run was killed before its first checkpoint\n",
+                   target.partPath().c_str());
+    }
+  } else if (hasPart || hasCkpt) {
+    if (!options.force) {
+      std::string at;
+      if (hasCkpt) {
+        try {
+          const Checkpoint c = readCheckpoint(target.checkpointPath());
+          at = " at frame " + std::to_string(c.frames) + " of " + std::to_string(scenario.frames);
+        } catch (const Error&) {
+        }
+      }
+      throw OutputError(requested + ": an interrupted run of this output left its partial output" + at + " (" +
+                        (hasPart ? target.partPath() : target.checkpointPath()) +
+                        "): continue it with --resume, or start again with --force");
+    }
+    std::fprintf(stderr, "swarmsim: note: --force: discarding the interrupted run's partial output of %s\n",
+                 requested.c_str());
   }
-  if (!options.force && std::filesystem::exists(result.path, exists)) {
-    throw OutputError(result.path + ": output file exists (use --force to overwrite)");
+  if (start == Start::kFresh || start == Start::kCopy) {
+    target.removePart();
+    if (start == Start::kFresh) target.removeCheckpoint();
+  }
+  // a partial file to copy from is moved aside first (the new one takes its name)
+  const std::string copySource = start == Start::kCopy ? target.path() : target.partPath() + ".old";
+  if (start == Start::kCopyPart && std::rename(target.partPath().c_str(), copySource.c_str()) != 0) {
+    throw OutputError(target.partPath() + ": cannot move aside to resume: " + std::strerror(errno));
   }
 
   Simulation sim(scenario);
-  // the file records where it was written
-  Scenario recorded = scenario;
-  recorded.resolved["output"]["path"] = std::filesystem::absolute(result.path).lexically_normal().string();
   std::vector<std::vector<std::string>> statNames;
   for (std::size_t i = 0; i < scenario.swarms.size(); ++i) statNames.push_back(sim.model(i).statNames());
-  TrajectoryWriter writer(result.path, recorded, sim.swarms(), statNames, options.force);
-  // frame 0: no step yet; each model says what its statistics are then (0, or NaN for "not computed")
-  std::vector<std::vector<double>> stats;
-  sim.takeFrameStats(stats);
-  writer.writeFrame(sim.time(), sim.swarms(), stats);
+  std::optional<TrajectoryWriter> writer;
+  // after a failure, the partial output is kept only if a checkpoint can continue it
+  bool keepOnError = start != Start::kFresh;
+  const auto saveCheckpoint = [&] {
+    writer->flush();
+    Checkpoint c = sim.checkpoint();
+    c.scenario = recordedJson;
+    c.frames = writer->framesWritten();
+    c.dataHash = writer->dataHash();
+    writeCheckpoint(target.checkpointPath(), c);
+    keepOnError = true;
+  };
 
-  const bool tty = isatty(STDERR_FILENO) != 0;
-  auto lastReport = Clock::now();
-  const auto loopStart = Clock::now();
-  std::uint64_t loopSteps = 0;
-  for (std::int64_t f = 1; f < scenario.frames; ++f) {
-    if (gStop.load()) break;
-    for (std::int64_t k = 0; k < scenario.stepsPerFrame; ++k) sim.step();
-    loopSteps += static_cast<std::uint64_t>(scenario.stepsPerFrame);
-    sim.takeFrameStats(stats);
-    writer.writeFrame(sim.time(), sim.swarms(), stats);
-    if (options.progress && (secondsSince(lastReport) >= 0.5 || f + 1 == scenario.frames)) {
-      lastReport = Clock::now();
-      const double elapsed = secondsSince(loopStart);
-      const double rate = static_cast<double>(loopSteps) / std::max(elapsed, 1e-9);
-      const double remaining = static_cast<double>((scenario.frames - 1 - f) * scenario.stepsPerFrame) / rate;
-      std::fprintf(stderr, "%sframe %lld/%lld  agents %lld  %.1f steps/s  ETA %s%s", tty ? "\r\033[K" : "",
-                   static_cast<long long>(f + 1), static_cast<long long>(scenario.frames),
-                   static_cast<long long>(result.agents), rate, formatDuration(remaining).c_str(), tty ? "" : "\n");
-      std::fflush(stderr);
+  // a failed copy from a moved-aside partial file puts it back
+  const auto restoreCopySource = [&] {
+    struct stat st {};
+    if (start == Start::kCopyPart && ::stat(copySource.c_str(), &st) == 0) std::rename(copySource.c_str(), target.partPath().c_str());
+  };
+  std::vector<std::vector<double>> stats;
+  try {
+    if (start == Start::kReopen) {
+      writer.emplace(target.partPath(), recorded, sim.swarms(), statNames, TrajectoryWriter::Mode::kReopen, ckpt.frames);
+      if (writer->hashStoredFrames(ckpt.frames) != ckpt.dataHash) {
+        throw InputError(target.partPath() + ": the partial output does not match its checkpoint (damaged?): "
+                         "cannot resume; start again with --force");
+      }
+      writer->setDataHash(ckpt.dataHash);
+    } else {
+      writer.emplace(target.partPath(), recorded, sim.swarms(), statNames, TrajectoryWriter::Mode::kCreate);
+      if (start == Start::kCopy || start == Start::kCopyPart) {
+        writer->copyFramesFrom(copySource, ckpt.frames);
+        if (writer->dataHash() != ckpt.dataHash) {
+          throw InputError(copySource + ": its frames do not match the checkpoint (damaged or changed?): cannot "
+                           "resume; start again with --force");
+        }
+        if (start == Start::kCopyPart) std::remove(copySource.c_str());
+      }
     }
+    if (start == Start::kFresh) {
+      // frame 0: no step yet; each model says what its statistics are then (0, or NaN for "not computed")
+      sim.takeFrameStats(stats);
+      writer->writeFrame(sim.time(), sim.swarms(), stats);
+      saveCheckpoint();
+    } else {
+      sim.restore(ckpt, target.checkpointPath());
+      result.resumedFrom = ckpt.frames;
+      keepOnError = true;
+    }
+
+    const bool tty = isatty(STDERR_FILENO) != 0;
+    auto lastReport = Clock::now(), lastCheckpoint = Clock::now();
+    const auto loopStart = Clock::now();
+    const std::uint64_t firstStep = sim.stepsDone();
+    const std::uint64_t spf = static_cast<std::uint64_t>(scenario.stepsPerFrame);
+    bool stopped = false;
+    for (std::int64_t f = writer->framesWritten(); f < scenario.frames && !stopped; ++f) {
+      while (sim.stepsDone() < static_cast<std::uint64_t>(f) * spf) {
+        if (gStop.load()) {
+          stopped = true;
+          break;
+        }
+        if (gCheckpointNow.exchange(false)) {
+          saveCheckpoint();
+          lastCheckpoint = Clock::now();
+        }
+        sim.step();
+      }
+      if (stopped) break;
+      sim.takeFrameStats(stats);
+      writer->writeFrame(sim.time(), sim.swarms(), stats);
+      if (gCheckpointNow.exchange(false) || secondsSince(lastCheckpoint) >= options.checkpointSeconds) {
+        saveCheckpoint();
+        lastCheckpoint = Clock::now();
+      }
+      if (options.progress && (secondsSince(lastReport) >= 0.5 || f + 1 == scenario.frames)) {
+        lastReport = Clock::now();
+        const double elapsed = secondsSince(loopStart);
+        const double rate = static_cast<double>(sim.stepsDone() - firstStep) / std::max(elapsed, 1e-9);
+        const double remaining = static_cast<double>((scenario.frames - 1 - f) * scenario.stepsPerFrame) / rate;
+        std::fprintf(stderr, "%sframe %lld/%lld  agents %lld  %.1f steps/s  ETA %s%s", tty ? "\r\033[K" : "",
+                     static_cast<long long>(f + 1), static_cast<long long>(scenario.frames),
+                     static_cast<long long>(result.agents), rate, formatDuration(remaining).c_str(), tty ? "" : "\n");
+        std::fflush(stderr);
+      }
+    }
+    if (options.progress && tty) std::fprintf(stderr, "\n");
+    result.interrupted = writer->framesWritten() < scenario.frames;  // only a stop ends the loop early
+    result.frames = writer->framesWritten();
+    if (result.interrupted) saveCheckpoint();  // the exact step reached, mid-frame or not
+    writer->close(!result.interrupted);
+    // an interrupted output of this scenario that this run continued is replaced
+    target.place(options.force || start == Start::kCopy);
+    if (!result.interrupted) target.removeCheckpoint();
+  } catch (const OutputError& e) {
+    writer.reset();
+    restoreCopySource();
+    if (keepOnError && target.checkpointExists()) {
+      throw OutputError(std::string(e.what()) + "; the run so far is kept (" + target.partPath() +
+                        "): continue it with --resume");
+    }
+    target.removePart();
+    target.removeCheckpoint();
+    throw;
+  } catch (...) {
+    writer.reset();
+    restoreCopySource();
+    if (start == Start::kFresh) {
+      target.removePart();
+      target.removeCheckpoint();
+    }
+    throw;
   }
-  if (options.progress && tty) std::fprintf(stderr, "\n");
-  result.interrupted = gStop.load();
-  result.frames = writer.framesWritten();
-  writer.finish(result.interrupted);
   result.wallSeconds = secondsSince(t0);
   std::error_code ec;
-  result.bytes = std::filesystem::file_size(result.path, ec);
+  result.bytes = std::filesystem::file_size(target.path(), ec);
   if (!options.quiet) {
-    std::printf("%s: %lld frames, %lld agents, %.2f s wall, output %s (%s)\n",
-                result.interrupted ? "interrupted" : "done", static_cast<long long>(result.frames),
+    std::string resumed;
+    if (result.resumedFrom >= 0) resumed = " (resumed at frame " + std::to_string(result.resumedFrom) + ")";
+    std::printf("%s: %lld frames%s, %lld agents, %.2f s wall, output %s (%s)\n",
+                result.interrupted ? "interrupted" : "done", static_cast<long long>(result.frames), resumed.c_str(),
                 static_cast<long long>(result.agents), result.wallSeconds, result.path.c_str(),
                 formatBytes(result.bytes).c_str());
     std::fflush(stdout);

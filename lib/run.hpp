@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/swarm_state.hpp"
+#include "io/checkpoint.hpp"
 #include "io/scenario.hpp"
 #include "models/model.hpp"
 
@@ -31,6 +32,11 @@ class Simulation {
   const Model& model(std::size_t swarm) const { return *models_[swarm]; }
   // per swarm, the models' statistics since the last call (see Model::takeFrameStats)
   void takeFrameStats(std::vector<std::vector<double>>& out);
+  // the state to continue from (steps, swarms, the models' saveState); frames,
+  // hash and scenario are the caller's to fill in
+  Checkpoint checkpoint() const;
+  // continue from a checkpoint of the same scenario (throws InputError if it does not fit)
+  void restore(const Checkpoint& c, const std::string& file);
 
  private:
   World world_;
@@ -43,6 +49,8 @@ class Simulation {
 struct RunOptions {
   std::string output;    // empty: the scenario's output path
   bool force = false;    // overwrite an existing output
+  bool resume = false;   // continue an interrupted run of this output, if there is one
+  double checkpointSeconds = 30.0;  // wall time between checkpoints (0: after every frame)
   bool progress = false; // progress lines on stderr
   bool quiet = false;    // no summary line
 };
@@ -54,15 +62,21 @@ struct RunResult {
   std::string path;
   std::uintmax_t bytes = 0;
   bool interrupted = false;
+  std::int64_t resumedFrom = -1;  // frames kept from the interrupted run (-1: a fresh run)
+  bool alreadyComplete = false;   // --resume found the output complete: nothing was done
 };
 
 // Run the scenario, writing every frame (frame 0 is the initial state, so
-// `frames` frames take (frames - 1) * steps_per_frame steps). SIGINT/SIGTERM
-// stop it at the next frame boundary with a valid file.
+// `frames` frames take (frames - 1) * steps_per_frame steps). A checkpoint is
+// written after frame 0 and then every `checkpointSeconds`; SIGINT, SIGTERM
+// and SIGHUP stop the run after the step in progress with a valid output of
+// the frames written and a checkpoint beside it; SIGUSR1 asks for a checkpoint
+// after the step in progress. docs/cli.md#resume.
 RunResult runScenario(const Scenario& scenario, const RunOptions& options);
 
-// install SIGINT/SIGTERM handlers that request a stop at the next frame
-// boundary; clears any earlier request
+// install the handlers for SIGINT, SIGTERM, SIGHUP (stop), SIGUSR1
+// (checkpoint) and ignore SIGXFSZ (a file-size limit becomes a write error);
+// clears any earlier request
 void installStopHandlers();
 
 }  // namespace swarmsim

@@ -64,13 +64,15 @@ std::vector<std::string> shippedScenarios() {
   return files;
 }
 
+// a partial output, lock or checkpoint left beside an output
 bool hasTmpFile(const TempDir& dir) {
   for (const auto& name : dir.entries()) {
-    if (name.find(".tmp") != std::string::npos) return true;
+    for (const char* mark : {".tmp", ".part", ".lock", ".ckpt"}) {
+      if (name.find(mark) != std::string::npos) return true;
+    }
   }
   return false;
 }
-
 }  // namespace
 
 TEST_CASE("CLI version and help", "[cli]") {
@@ -272,7 +274,7 @@ TEST_CASE("CLI SIGINT stops a run with a valid file", "[cli]") {
   const auto t0 = Clock::now();
   bool started = false;
   while (Clock::now() - t0 < std::chrono::seconds(10)) {
-    if (hasTmpFile(dir)) {
+    if (fs::exists(dir.file(".long.h5.part"))) {
       started = true;
       break;
     }
@@ -304,7 +306,10 @@ TEST_CASE("CLI SIGINT stops a run with a valid file", "[cli]") {
   CHECK(WEXITSTATUS(status) == 4);
   CHECK_THAT(swarmsim_test::readText(outLog), Contains("interrupted"));
   REQUIRE(fs::exists(out));
-  CHECK_FALSE(hasTmpFile(dir));
+  // beside the interrupted output: only its checkpoint (for --resume)
+  CHECK(fs::exists(dir.file(".long.h5.ckpt")));
+  CHECK_FALSE(fs::exists(dir.file(".long.h5.part")));
+  CHECK_FALSE(fs::exists(dir.file(".long.h5.lock")));
   const Json info = infoJson(out, dir);
   CHECK(info.at("frames").get<long long>() >= 1);
   CHECK(info.at("interrupted") == true);

@@ -15,6 +15,7 @@
 #include "core/error.hpp"
 #include "io/scenario.hpp"
 #include "io/trajectory_reader.hpp"
+#include "io/output_target.hpp"
 #include "io/trajectory_writer.hpp"
 #include "run.hpp"
 #include "test_util.hpp"
@@ -266,10 +267,13 @@ TEST_CASE("Trajectory overwrite needs force", "[io]") {
     CHECK(swarmsim_test::readText(out) == before);
     requireOnly(dir, {"traj.h5"});
   }
-  SECTION("TrajectoryWriter refuses without force") {
+  SECTION("OutputTarget and TrajectoryWriter refuse without force") {
     std::vector<swarmsim::SwarmState> swarms;
     for (std::uint32_t s = 0; s < sc.swarms.size(); ++s) swarms.push_back(swarmsim::spawnSwarm(sc.swarms[s], sc.seed, s));
-    CHECK_THROWS_AS(swarmsim::TrajectoryWriter(out, sc, swarms, {}, false), swarmsim::OutputError);
+    CHECK_THROWS_AS(swarmsim::OutputTarget(out, false, false), swarmsim::OutputError);
+    // the writer only ever creates a new file
+    CHECK_THROWS_AS(swarmsim::TrajectoryWriter(out, sc, swarms, {}, swarmsim::TrajectoryWriter::Mode::kCreate),
+                    swarmsim::OutputError);
     CHECK(swarmsim_test::readText(out) == before);
     requireOnly(dir, {"traj.h5"});
   }
@@ -285,26 +289,28 @@ TEST_CASE("Trajectory overwrite needs force", "[io]") {
   }
 }
 
-TEST_CASE("Trajectory writer without finish leaves no file", "[io]") {
+TEST_CASE("Trajectory writer: only the partial file exists until the output is placed", "[io]") {
   TempDir dir;
   const Scenario sc = parseScenario(tinyScenario(), dir.file("tiny.json"));
   const std::string out = dir.file("sub/traj.h5");
   std::vector<swarmsim::SwarmState> swarms;
   for (std::uint32_t s = 0; s < sc.swarms.size(); ++s) swarms.push_back(swarmsim::spawnSwarm(sc.swarms[s], sc.seed, s));
   {
-    swarmsim::TrajectoryWriter w(out, sc, swarms, {}, false);
+    const swarmsim::OutputTarget target(out, false, false);
+    CHECK(target.partPath() == dir.file("sub/.traj.h5.part"));
+    swarmsim::TrajectoryWriter w(target.partPath(), sc, swarms, {}, swarmsim::TrajectoryWriter::Mode::kCreate);
     w.writeFrame(0.0, swarms, {});
     CHECK(w.framesWritten() == 1);
-    // while writing, only a temporary file exists, next to the target
-    std::size_t tmp = 0;
-    for (const auto& e : std::filesystem::directory_iterator(dir.path() / "sub")) {
-      tmp += e.path().filename().string().find(".tmp") != std::string::npos ? 1 : 0;
-    }
-    CHECK(tmp == 1u);
     CHECK_FALSE(std::filesystem::exists(out));
-  }  // destroyed without finish(): an error path
-  CHECK_FALSE(std::filesystem::exists(out));
-  CHECK(std::filesystem::is_empty(dir.path() / "sub"));
+    CHECK(std::filesystem::exists(dir.file("sub/.traj.h5.lock")));
+    w.close(false);
+    target.place(false);
+    CHECK(std::filesystem::exists(out));
+    CHECK_FALSE(std::filesystem::exists(target.partPath()));
+  }  // the lock is released and its file removed
+  CHECK_FALSE(std::filesystem::exists(dir.file("sub/.traj.h5.lock")));
+  CHECK(swarmsim::readTrajectoryInfo(out).frames == 1);
+  CHECK(swarmsim::readTrajectoryInfo(out).interrupted);
 }
 
 TEST_CASE("Trajectory h5dump reads the file", "[io]") {

@@ -38,6 +38,12 @@ void writeAttr(hid_t obj, const char* name, double value) {
   writeScalar(obj, name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, &value);
 }
 
+void updateAttr(hid_t obj, const char* name, std::int64_t value) {
+  H5Handle attr(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose);
+  if (!attr.valid()) check(-1, "open", name);
+  check(H5Awrite(attr, H5T_NATIVE_INT64, &value), "write", name);
+}
+
 bool hasAttr(hid_t obj, const char* name) { return H5Aexists(obj, name) > 0; }
 
 std::string readStringAttr(hid_t obj, const char* name) {

@@ -14,6 +14,8 @@ void writeAttr(hid_t obj, const char* name, const std::string& value);
 void writeAttr(hid_t obj, const char* name, std::int64_t value);
 void writeAttr(hid_t obj, const char* name, std::uint64_t value);
 void writeAttr(hid_t obj, const char* name, double value);
+// overwrite an existing 64-bit integer attribute in place (no new allocation in the file)
+void updateAttr(hid_t obj, const char* name, std::int64_t value);
 
 bool hasAttr(hid_t obj, const char* name);
 std::string readStringAttr(hid_t obj, const char* name);

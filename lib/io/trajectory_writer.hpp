@@ -1,11 +1,19 @@
 #pragma once
 // Streams per-frame swarm state into an HDF5 trajectory file (docs/output.md).
 //
-// The file is written under a temporary name in the output's folder and
-// renamed to the requested path by finish(); if the writer is destroyed
-// without finish() (an error), the temporary file is removed. Frames go
-// straight to disk through extendible, chunked datasets, so memory stays
-// bounded by one frame.
+// The datasets grow in blocks of frames. Each block is allocated when the
+// first of its frames is written, and the file is then closed and opened
+// again, so its metadata is on disk and never changes while the block's
+// frames are written (without compression, writing a frame writes raw data
+// only). Hence a file cut off by a killed process is intact up to the block's
+// start and every frame written since, a reopened file continues exactly as
+// the same process would have (the same allocations from the same on-disk
+// state), and a resumed run ends in a file byte-identical to one that never
+// stopped. The block boundaries depend only on the frame count and the frame
+// size. Memory stays bounded by one frame.
+//
+// The writer writes the file it is given (OutputTarget decides names and
+// places the finished file); it never removes anything.
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -21,37 +29,73 @@ inline constexpr int kFormatVersion = 1;
 
 class TrajectoryWriter {
  public:
-  // creates the temporary file; throws OutputError if it exists and !force,
-  // or if it cannot be created
-  // statNames[i]: the per-frame statistics of swarm i (Model::statNames)
-  TrajectoryWriter(const std::string& path, const Scenario& scenario, const std::vector<SwarmState>& swarms,
-                   const std::vector<std::vector<std::string>>& statNames, bool force);
+  enum class Mode {
+    kCreate,  // a new file (it must not exist)
+    kReopen,  // a partial file made by kCreate for the same scenario: frames [0, framesKept) are kept
+  };
+  // statNames[i]: the per-frame statistics of swarm i (Model::statNames).
+  // Throws OutputError when the file cannot be created or written, InputError
+  // when a file to reopen is not the partial output of this scenario.
+  TrajectoryWriter(const std::string& file, const Scenario& scenario, const std::vector<SwarmState>& swarms,
+                   const std::vector<std::vector<std::string>>& statNames, Mode mode, std::int64_t framesKept = 0);
   TrajectoryWriter(const TrajectoryWriter&) = delete;
   TrajectoryWriter& operator=(const TrajectoryWriter&) = delete;
-  ~TrajectoryWriter();
+  ~TrajectoryWriter();  // closes the file if close() was not called (no exception)
+
+  // whether a killed run's partial file can be reopened in place (kReopen): not
+  // with compression, where writing a frame allocates space in the file
+  static bool canReopen(const Scenario& scenario) { return scenario.output.compression == 0; }
 
   // append one frame at simulated time `time` (seconds); stats[i] in statNames[i] order
   void writeFrame(double time, const std::vector<SwarmState>& swarms, const std::vector<std::vector<double>>& stats);
-  // write closing attributes, close and rename to the requested path
-  void finish(bool interrupted);
+  // append frames [0, frames) of another trajectory file of the same scenario (a resume from an interrupted output)
+  void copyFramesFrom(const std::string& source, std::int64_t frames);
+  // the data hash of this file's frames [0, frames), read back from disk (to check a reopened file)
+  std::uint64_t hashStoredFrames(std::int64_t frames);
+  // everything written so far is on disk (HDF5 flush, then fdatasync)
+  void flush();
+  // a hash of every frame's data written so far (chained frame by frame)
+  std::uint64_t dataHash() const { return hash_; }
+  // after a reopen checked with hashStoredFrames: continue the chain from there
+  void setDataHash(std::uint64_t h) { hash_ = h; }
+  // closing attributes, then close. An incomplete file's datasets are cut to
+  // the frames written (it stays a valid file for every reader).
+  void close(bool complete);
 
   std::int64_t framesWritten() const { return frames_; }
-  const std::string& path() const { return path_; }
+  const std::string& file() const { return file_; }
 
  private:
-  struct SwarmDatasets {
-    H5Handle group, position, velocity;
-    std::vector<H5Handle> stats;  // /swarms/<name>/stats/<stat>, (frames) float64
+  // one dataset's share of a frame: rows x 3 floats, or one double (rows == 0, a 1-D dataset)
+  struct Slot {
+    hid_t dataset = H5I_INVALID_HID;
+    std::size_t rows = 0;
+    bool vec = false;
+    std::size_t bytes() const { return vec ? rows * 3 * sizeof(float) : sizeof(double); }
   };
-  void appendVec3(hid_t dataset, const SwarmState& s, bool velocity);
-  void appendScalar(hid_t dataset, double value, const char* what);
+  void create(const Scenario& scenario, const std::vector<SwarmState>& swarms,
+              const std::vector<std::vector<std::string>>& statNames);
+  void open(bool checkScenario);  // opens the file and every slot's dataset; sets extent_
+  void closeFile();               // closes every handle (no exception)
+  void grow();                    // the next block of frames, then close and open again
+  std::int64_t nextBoundary(std::int64_t b) const;
+  void transfer(std::size_t slot, hid_t dataset, std::int64_t frame, void* data, bool write, const std::string& file);
+  void appendBuffers();  // slotData_ -> frame frames_, hash, ++frames_
 
-  std::string path_, tmpPath_;
-  H5Handle file_, time_;
-  std::vector<SwarmDatasets> swarms_;
-  std::vector<float> frameBuffer_;  // one swarm-frame, interleaved xyz
+  std::string file_;
+  std::string scenarioJson_;
+  std::int64_t capacity_ = 0;  // the scenario's frames
+  std::int64_t extent_ = 0;    // frames the datasets have now
+  H5Handle fileId_;
+  std::vector<H5Handle> datasets_;               // one per slot
+  std::vector<Slot> slots_;                      // in hashing order: per swarm position, velocity, stats; then time
+  std::vector<std::string> slotNames_;           // dataset paths
+  std::vector<std::vector<unsigned char>> slotData_;  // one frame of each slot
+  std::vector<std::size_t> swarmFirstSlot_;      // per swarm: its first slot
+  std::vector<int> swarmHasPos_, swarmHasVel_;
   std::int64_t frames_ = 0;
-  bool finished_ = false;
+  std::uint64_t hash_ = 0;
+  bool closed_ = false;
 };
 
 }  // namespace swarmsim

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/json_reader.hpp"
+#include "core/state_buffer.hpp"
 #include "core/swarm_state.hpp"
 #include "core/world.hpp"
 
@@ -29,6 +30,17 @@ class Model {
   virtual void takeFrameStats(std::vector<double>& values) { values.clear(); }
   // facts for `swarmsim bench` (grid sizes, preprocessing split...), a JSON object
   virtual Json benchInfo() const { return Json::object(); }
+
+  // Checkpoints (`swarmsim run --resume`, docs/architecture.md#checkpoints): a
+  // model that carries anything from one step to the next besides the
+  // SwarmState (a re-solved field, a per-insect choice, accumulated frame
+  // statistics) writes it here and reads it back in loadState, which is called
+  // on a freshly built model (after its precomputation) before the next step.
+  // The resumed run must then be bit-identical to one that never stopped.
+  // Whatever can be recomputed from the world, the parameters, the step and
+  // the counter-based random numbers needs no saving. Default: nothing to save.
+  virtual void saveState(StateOut& out) const { (void)out; }
+  virtual void loadState(StateIn& in, const World& world) { (void)in, (void)world; }
 };
 
 class ModelConfig {

@@ -385,6 +385,16 @@ Plane agentHalfSpace(const Vec3& p, const Vec3& vi, const Vec3& vj, float radius
   return agentPlane(F3{in[0][0], in[1][0], in[2][0]}, v, F3{in[3][0], in[4][0], in[5][0]}, 0, 1, ac);
 }
 
+void Solver::saveState(StateOut& out) const {
+  out.put(nextCell_);
+  out.put<std::uint64_t>(lastSize_);
+}
+
+void Solver::loadState(StateIn& in) {
+  nextCell_ = in.get<float>();
+  lastSize_ = static_cast<std::size_t>(in.get<std::uint64_t>());
+}
+
 float Solver::suggestedCell(const Params& params) const {
   const float nd = params.neighborDistance;
   if (!(nextCell_ > 0.0f) || !(nd > 0.0f)) return nd;

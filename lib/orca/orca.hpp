@@ -10,6 +10,7 @@
 // half-spaces and the max-speed ball (an incremental 3-D linear program). When
 // the half-spaces have no common point inside the ball, the velocity of
 // smallest worst violation is used, obstacle half-spaces first.
+#include "core/state_buffer.hpp"
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -73,6 +74,12 @@ class Solver {
   void solve(const UniformGrid& grid, const float* vx, const float* vy, const float* vz, const float* prefX,
              const float* prefY, const float* prefZ, const Params& params, const Obstacles& obstacles, float dt,
              float* outX, float* outY, float* outZ);
+
+  // What carries over from one solve to the next (the search cell size, which a
+  // caller's grid follows through suggestedCell and so decides its agent order),
+  // for checkpoints: a solver restored from saveState continues bit-identically.
+  void saveState(StateOut& out) const;
+  void loadState(StateIn& in);
 
   // the cell edge the k-nearest search will want next (m): a caller that builds its
   // grid with this minCell lets the solver search that grid instead of building its own

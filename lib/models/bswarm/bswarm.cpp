@@ -186,6 +186,27 @@ class BswarmModel final : public Model {
                                        static_cast<double>(std::max<std::size_t>(1, totalAgentSteps_))}};
   }
 
+  // carried between steps: only statistics (stimulus paths, schedules and the
+  // escape angles follow from the time, the parameters and the random streams)
+  void saveState(StateOut& out) const override {
+    out.put(lastPolarisation_);
+    out.put(lastStimulusDistance_);
+    for (std::size_t v : {frameInfeasible_, frameAgentSteps_, totalInfeasible_, totalAgentSteps_, timedAgentSteps_}) {
+      out.put<std::uint64_t>(v);
+    }
+    solver_.saveState(out);
+  }
+
+  void loadState(StateIn& in, const World&) override {
+    lastPolarisation_ = in.get<double>();
+    lastStimulusDistance_ = in.get<double>();
+    for (std::size_t* v :
+         {&frameInfeasible_, &frameAgentSteps_, &totalInfeasible_, &totalAgentSteps_, &timedAgentSteps_}) {
+      *v = static_cast<std::size_t>(in.get<std::uint64_t>());
+    }
+    solver_.loadState(in);
+  }
+
   void step(const World& world, SwarmState& s, const StepInfo& info) override {
     const std::size_t n = s.size();
     const double t = info.time;

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "core/parallel.hpp"
 #include "core/rng.hpp"
@@ -122,13 +123,42 @@ class FieldModel final : public Model {
     parallelFor(clearFar_.size(), [&](std::size_t c) { clearFar_[c] = clearanceSdf_.data[c] >= margin ? 1 : 0; });
   }
 
-  std::vector<std::string> statNames() const override { return {"mde_fraction", "cost_solve_seconds"}; }
+  std::vector<std::string> statNames() const override { return {"mde_fraction", "cost_solves"}; }
 
   void takeFrameStats(std::vector<double>& values) override {
     values = {frameAgentSteps_ > 0 ? static_cast<double>(frameMoved_) / static_cast<double>(frameAgentSteps_) : 0.0,
-              frameSolveSeconds_};
+              static_cast<double>(frameSolves_)};
     frameMoved_ = frameAgentSteps_ = 0;
-    frameSolveSeconds_ = 0.0;
+    frameSolves_ = 0;
+  }
+
+  // carried between steps: the goal positions the cost field was last solved
+  // for (a moving goal re-solves only after moving half a cell, so the field in
+  // use depends on the history) and the statistics counters
+  void saveState(StateOut& out) const override {
+    std::vector<double> c;
+    for (const Vec3d& v : solvedCenters_) c.insert(c.end(), {v.x(), v.y(), v.z()});
+    out.putVector(c);
+    for (std::size_t v : {frameMoved_, frameAgentSteps_, totalMoved_, totalAgentSteps_}) out.put<std::uint64_t>(v);
+    out.put<std::int64_t>(frameSolves_);
+    out.put<std::int64_t>(solves_);
+  }
+
+  void loadState(StateIn& in, const World&) override {
+    const std::vector<double> c = in.getVector<double>();
+    if (c.size() != 3 * p_.goals.size()) throw std::runtime_error("field checkpoint: goal count differs");
+    std::vector<Vec3d> centers;
+    for (std::size_t g = 0; g < p_.goals.size(); ++g) centers.emplace_back(c[3 * g], c[3 * g + 1], c[3 * g + 2]);
+    for (std::size_t* v : {&frameMoved_, &frameAgentSteps_, &totalMoved_, &totalAgentSteps_}) {
+      *v = static_cast<std::size_t>(in.get<std::uint64_t>());
+    }
+    frameSolves_ = in.get<std::int64_t>();
+    const long long solves = in.get<std::int64_t>();
+    if (centers != solvedCenters_) {
+      solveAt(centers);
+      combine();
+    }
+    solves_ = solves;
   }
 
   Json benchInfo() const override {
@@ -164,9 +194,8 @@ class FieldModel final : public Model {
         const auto t0 = Clock::now();
         solveCost(t);
         combine();
-        const double sec = since(t0);
-        frameSolveSeconds_ += sec;
-        totalSolveSeconds_ += sec;
+        totalSolveSeconds_ += since(t0);
+        ++frameSolves_;
       }
     }
 
@@ -369,8 +398,14 @@ class FieldModel final : public Model {
   }
 
   void solveCost(double t) {
-    solvedCenters_.clear();
-    for (const auto& g : p_.goals) solvedCenters_.push_back(g.centerAt(t));
+    std::vector<Vec3d> centers;
+    for (const auto& g : p_.goals) centers.push_back(g.centerAt(t));
+    solveAt(centers);
+  }
+
+  // the cost field for goals centred at `centers` (one per goal)
+  void solveAt(const std::vector<Vec3d>& centers) {
+    solvedCenters_ = centers;
     hasGoals_ = !p_.goals.empty();
     dynamicGoals_ = false;
     for (const auto& g : p_.goals) dynamicGoals_ = dynamicGoals_ || !g.keyTimes.empty();
@@ -417,8 +452,8 @@ class FieldModel final : public Model {
   double tDistance_ = 0.0, tCost_ = 0.0, tNoise_ = 0.0, tFmm_ = 0.0, lastFmmSeconds_ = 0.0;
   // statistics
   std::size_t frameMoved_ = 0, frameAgentSteps_ = 0, totalMoved_ = 0, totalAgentSteps_ = 0;
-  double frameSolveSeconds_ = 0.0, totalSolveSeconds_ = 0.0;
-  long long solves_ = 0;
+  double totalSolveSeconds_ = 0.0;
+  long long frameSolves_ = 0, solves_ = 0;
   // scratch, reused every step
   UniformGrid grid_;
   std::vector<float> nx_, ny_, nz_, vx_, vy_, vz_;
