@@ -4,7 +4,9 @@
 
 #include <CLI/CLI.hpp>
 #include <hdf5.h>
+#include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 #include <sstream>
 
@@ -39,10 +41,21 @@ std::vector<T> parseList(const std::string& text, const char* option) {
   return out;
 }
 
-std::vector<std::string> overridesFrom(const std::vector<std::string>& sets, long long frames, long long seed) {
+// --seed: a whole number 0 .. 2^64-1, checked here (CLI11 would saturate larger values)
+std::string checkedSeed(const std::string& text) {
+  errno = 0;
+  char* end = nullptr;
+  const unsigned long long v = std::strtoull(text.c_str(), &end, 10);
+  if (text.empty() || text.find_first_not_of("0123456789") != std::string::npos || *end != '\0' || errno == ERANGE) {
+    throw InputError("--seed: expected a whole number from 0 to 18446744073709551615, got \"" + text + "\"");
+  }
+  return std::to_string(v);
+}
+
+std::vector<std::string> overridesFrom(const std::vector<std::string>& sets, long long frames, const std::string& seed) {
   std::vector<std::string> o = sets;
   if (frames >= 0) o.push_back("frames=" + std::to_string(frames));
-  if (seed >= 0) o.push_back("seed=" + std::to_string(seed));
+  if (!seed.empty()) o.push_back("seed=" + checkedSeed(seed));
   return o;
 }
 
@@ -61,16 +74,18 @@ int main(int argc, char** argv) {
 
   // run
   std::string scenarioFile, outPath;
-  long long frames = -1, seed = -1;
+  long long frames = -1;
+  std::string seed;
   int threads = 0;
   std::vector<std::string> sets;
   bool force = false, quiet = false, progress = false;
   CLI::App* run = app.add_subcommand("run", "Run a scenario and write its trajectories to HDF5");
   run->add_option("scenario", scenarioFile, "Scenario JSON file")->required();
-  run->add_option("-o,--output", outPath, "Output HDF5 file (default: the scenario's output.path)");
+  CLI::Option* outOption =
+      run->add_option("-o,--output", outPath, "Output HDF5 file (default: the scenario's output.path)");
   run->add_option("--frames", frames, "Number of frames to write (overrides the scenario)")->check(CLI::Range(1LL, 100000000LL));
   run->add_option("--threads", threads, "Worker threads (default: all cores)")->check(CLI::Range(1, 1024));
-  run->add_option("--seed", seed, "Random seed (overrides the scenario)")->check(CLI::NonNegativeNumber);
+  run->add_option("--seed", seed, "Random seed 0..2^64-1 (overrides the scenario)")->type_name("UINT64");
   run->add_option("--set", sets, "Override a scenario value, e.g. --set swarms[0].count=5000 (repeatable)")
       ->type_name("PATH=VALUE");
   run->add_flag("--force", force, "Overwrite an existing output file (a swarmsim output or an empty file)");
@@ -134,13 +149,23 @@ int main(int argc, char** argv) {
 
   try {
     app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e) == 0 ? kExitOk : kExitInvalidInput;
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e) == 0 ? kExitOk : kExitInvalidInput;
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e) == 0 ? kExitOk : kExitInvalidInput;
   } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
-    return code == 0 ? kExitOk : kExitInvalidInput;
+    // one line, like every other error
+    std::fprintf(stderr, "swarmsim: error: %s (see swarmsim --help)\n", e.what());
+    return kExitInvalidInput;
   }
 
   try {
     if (*run) {
+      if (outOption->count() > 0 && outPath.empty()) {
+        throw InputError("-o/--output: empty path (expected an output file path)");
+      }
       if (threads > 0) setThreadCount(threads);
       const Scenario sc = loadScenario(scenarioFile, overridesFrom(sets, frames, seed));
       for (const auto& w : sc.warnings) std::fprintf(stderr, "swarmsim: warning: %s\n", w.c_str());

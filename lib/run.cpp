@@ -278,11 +278,11 @@ RunResult runScenario(const Scenario& scenario, const RunOptions& options) {
     target.removePart();
     if (start == Start::kFresh) target.removeCheckpoint();
   }
-  // a partial file to copy from is moved aside first (the new one takes its name)
-  const std::string copySource = start == Start::kCopy ? target.path() : target.partPath() + ".old";
-  if (start == Start::kCopyPart && std::rename(target.partPath().c_str(), copySource.c_str()) != 0) {
-    throw OutputError(target.partPath() + ": cannot move aside to resume: " + std::strerror(errno));
-  }
+  // a resume that copies frames writes a new file beside and renames it over the
+  // partial file once it holds them all (a kill meanwhile leaves both as they were)
+  const std::string copySource = start == Start::kCopy ? target.path() : target.partPath();
+  const std::string copyTarget = target.partPath() + ".new";
+  ::unlink(copyTarget.c_str());  // left by a resume killed while copying
 
   Simulation sim(scenario);
   std::vector<std::vector<std::string>> statNames;
@@ -300,11 +300,6 @@ RunResult runScenario(const Scenario& scenario, const RunOptions& options) {
     keepOnError = true;
   };
 
-  // a failed copy from a moved-aside partial file puts it back
-  const auto restoreCopySource = [&] {
-    struct stat st {};
-    if (start == Start::kCopyPart && ::stat(copySource.c_str(), &st) == 0) std::rename(copySource.c_str(), target.partPath().c_str());
-  };
   std::vector<std::vector<double>> stats;
   try {
     if (start == Start::kReopen) {
@@ -315,14 +310,18 @@ RunResult runScenario(const Scenario& scenario, const RunOptions& options) {
       }
       writer->setDataHash(ckpt.dataHash);
     } else {
-      writer.emplace(target.partPath(), recorded, sim.swarms(), statNames, TrajectoryWriter::Mode::kCreate);
-      if (start == Start::kCopy || start == Start::kCopyPart) {
+      const bool copy = start == Start::kCopy || start == Start::kCopyPart;
+      writer.emplace(copy ? copyTarget : target.partPath(), recorded, sim.swarms(), statNames,
+                     TrajectoryWriter::Mode::kCreate);
+      if (copy) {
         writer->copyFramesFrom(copySource, ckpt.frames);
         if (writer->dataHash() != ckpt.dataHash) {
+          ::unlink(copyTarget.c_str());
           throw InputError(copySource + ": its frames do not match the checkpoint (damaged or changed?): cannot "
                            "resume; start again with --force");
         }
-        if (start == Start::kCopyPart) std::remove(copySource.c_str());
+        writer->flush();
+        writer->moveTo(target.partPath());
       }
     }
     if (start == Start::kFresh) {
@@ -382,7 +381,7 @@ RunResult runScenario(const Scenario& scenario, const RunOptions& options) {
     if (!result.interrupted) target.removeCheckpoint();
   } catch (const OutputError& e) {
     writer.reset();
-    restoreCopySource();
+    ::unlink(copyTarget.c_str());
     if (keepOnError && target.checkpointExists()) {
       throw OutputError(std::string(e.what()) + "; the run so far is kept (" + target.partPath() +
                         "): continue it with --resume");
@@ -392,7 +391,7 @@ RunResult runScenario(const Scenario& scenario, const RunOptions& options) {
     throw;
   } catch (...) {
     writer.reset();
-    restoreCopySource();
+    ::unlink(copyTarget.c_str());
     if (start == Start::kFresh) {
       target.removePart();
       target.removeCheckpoint();

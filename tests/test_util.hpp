@@ -1,6 +1,8 @@
 #pragma once
 // Helpers shared by the swarmsim tests: a unique temporary folder per test,
 // file helpers and a way to run the built swarmsim binary.
+#include <fcntl.h>
+#include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -95,6 +97,65 @@ inline CommandResult runCommand(const std::string& commandLine, const fs::path& 
   fs::remove(outFile, ec);
   fs::remove(errFile, ec);
   return r;
+}
+
+// A child process running `args` (args[0] is the program) in `dir`, stdout and
+// stderr to files there; for tests that signal a run while it works.
+struct Child {
+  pid_t pid = -1;
+  std::string outLog, errLog;
+};
+
+inline Child spawnChild(const std::vector<std::string>& args, const fs::path& dir, const std::string& tag = "child") {
+  Child c;
+  c.outLog = (dir / (tag + ".stdout")).string();
+  c.errLog = (dir / (tag + ".stderr")).string();
+  c.pid = fork();
+  if (c.pid < 0) throw std::runtime_error("fork failed");
+  if (c.pid == 0) {
+    const int o = open(c.outLog.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    const int e = open(c.errLog.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    const int in = open("/dev/null", O_RDONLY);
+    if (o < 0 || e < 0 || in < 0 || dup2(o, 1) < 0 || dup2(e, 2) < 0 || dup2(in, 0) < 0 || chdir(dir.c_str()) != 0) {
+      _exit(127);
+    }
+    std::vector<char*> argv;
+    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  return c;
+}
+
+// wait at most `ms` milliseconds for the child; its wait status, or -1 if it
+// is still running (then it is killed and reaped when `killLate`)
+inline int waitChild(pid_t pid, long ms, bool killLate = true) {
+  for (long waited = 0;; waited += 5) {
+    int status = 0;
+    if (waitpid(pid, &status, WNOHANG) == pid) return status;
+    if (waited >= ms) break;
+    usleep(5000);
+  }
+  if (killLate) {
+    kill(pid, SIGKILL);
+    int status = 0;
+    waitpid(pid, &status, 0);
+  }
+  return -1;
+}
+
+// wait until `path` exists (at most `ms`), false if the child ended first or time ran out
+inline bool waitForFile(const std::string& path, pid_t pid, long ms) {
+  for (long waited = 0; waited < ms; waited += 5) {
+    if (fs::exists(path)) return true;
+    siginfo_t info{};
+    if (waitid(P_PID, static_cast<id_t>(pid), &info, WEXITED | WNOHANG | WNOWAIT) == 0 && info.si_pid == pid) {
+      return false;  // ended (still to be reaped by waitChild)
+    }
+    usleep(5000);
+  }
+  return false;
 }
 
 }  // namespace swarmsim_test

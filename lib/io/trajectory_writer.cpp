@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 
 #include "core/error.hpp"
@@ -49,6 +50,26 @@ H5Handle createGroup(hid_t parent, const char* name) {
 }
 
 std::string errnoText() { return std::strerror(errno); }
+
+// File access: no raw-data chunk cache (a frame goes to disk when it is
+// written, so compressed chunks get their space in writing order, whenever the
+// file is flushed) and no metadata evictions (metadata reaches the disk only
+// when the file is flushed or closed, so between two flushes the file on disk
+// stays as the last flush left it, plus raw data in space no metadata uses).
+H5Handle accessProps() {
+  H5Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  H5Pset_cache(fapl, 0, 0, 0, 0.75);
+  H5AC_cache_config_t mdc;
+  mdc.version = H5AC__CURR_CACHE_CONFIG_VERSION;
+  if (H5Pget_mdc_config(fapl, &mdc) >= 0) {
+    mdc.evictions_enabled = false;
+    mdc.incr_mode = H5C_incr__off;
+    mdc.flash_incr_mode = H5C_flash_incr__off;
+    mdc.decr_mode = H5C_decr__off;
+    H5Pset_mdc_config(fapl, &mdc);
+  }
+  return fapl;
+}
 
 }  // namespace
 
@@ -111,7 +132,8 @@ TrajectoryWriter::TrajectoryWriter(const std::string& file, const Scenario& scen
 
 void TrajectoryWriter::create(const Scenario& scenario, const std::vector<SwarmState>& swarms,
                               const std::vector<std::vector<std::string>>& statNames) {
-  H5Handle f(H5Fcreate(file_.c_str(), H5F_ACC_EXCL, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
+  const H5Handle fapl = accessProps();
+  H5Handle f(H5Fcreate(file_.c_str(), H5F_ACC_EXCL, H5P_DEFAULT, fapl), H5Fclose);
   if (!f.valid()) throw OutputError(file_ + ": cannot create output file: " + errnoText());
   // root attributes: enough to reproduce the run from the file alone
   h5::writeAttr(f, "format", std::string(kFormatName));
@@ -174,7 +196,8 @@ void TrajectoryWriter::create(const Scenario& scenario, const std::vector<SwarmS
 }
 
 void TrajectoryWriter::open(bool checkScenario) {
-  fileId_ = H5Handle(H5Fopen(file_.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose);
+  const H5Handle fapl = accessProps();
+  fileId_ = H5Handle(H5Fopen(file_.c_str(), H5F_ACC_RDWR, fapl), H5Fclose);
   if (!fileId_.valid()) throw InputError(file_ + ": cannot open the partial output (damaged?)");
   if (checkScenario) {
     bool same = false;
@@ -333,6 +356,13 @@ void TrajectoryWriter::flush() {
       throw OutputError(file_ + ": cannot write to disk: " + errnoText());
     }
   }
+}
+
+void TrajectoryWriter::moveTo(const std::string& path) {
+  if (std::rename(file_.c_str(), path.c_str()) != 0) {
+    throw OutputError(file_ + ": cannot rename to " + path + ": " + errnoText());
+  }
+  file_ = path;
 }
 
 void TrajectoryWriter::close(bool complete) {

@@ -54,6 +54,8 @@ class TrajectoryWriter {
   std::uint64_t hashStoredFrames(std::int64_t frames);
   // everything written so far is on disk (HDF5 flush, then fdatasync)
   void flush();
+  // rename the file being written (it stays open); throws OutputError
+  void moveTo(const std::string& path);
   // a hash of every frame's data written so far (chained frame by frame)
   std::uint64_t dataHash() const { return hash_; }
   // after a reopen checked with hashStoredFrames: continue the chain from there
