@@ -13,6 +13,7 @@
 #include "bench.hpp"
 #include "core/error.hpp"
 #include "core/parallel.hpp"
+#include "core/threads.hpp"
 #include "eval/score.hpp"
 #include "io/scenario.hpp"
 #include "io/trajectory_reader.hpp"
@@ -84,7 +85,10 @@ int main(int argc, char** argv) {
   CLI::Option* outOption =
       run->add_option("-o,--output", outPath, "Output HDF5 file (default: the scenario's output.path)");
   run->add_option("--frames", frames, "Number of frames to write (overrides the scenario)")->check(CLI::Range(1LL, 100000000LL));
-  run->add_option("--threads", threads, "Worker threads (default: all cores)")->check(CLI::Range(1, 1024));
+  run->add_option("--threads", threads, "Worker threads (default: the CPUs this process may use)")
+      ->check(CLI::Range(1, 1024));
+  bool fixedThreads = false;
+  run->add_flag("--fixed-threads", fixedThreads, "Keep the thread count even when other processes busy the CPUs");
   run->add_option("--seed", seed, "Random seed 0..2^64-1 (overrides the scenario)")->type_name("UINT64");
   run->add_option("--set", sets, "Override a scenario value, e.g. --set swarms[0].count=5000 (repeatable)")
       ->type_name("PATH=VALUE");
@@ -124,7 +128,9 @@ int main(int argc, char** argv) {
       ->type_name("N[,N...]");
   bench->add_option("--frames", benchFrames, "Frames to time per repetition (default: min(scenario frames, 10))")
       ->check(CLI::Range(1LL, 100000000LL));
-  bench->add_option("--threads", benchThreads, "Thread counts T[,T...] (default: all cores)")->type_name("T[,T...]");
+  bench->add_option("--threads", benchThreads, "Thread counts T[,T...] (default: the CPUs this process may use)")
+      ->type_name("T[,T...]");
+  bench->add_flag("--fixed-threads", fixedThreads, "Keep each thread count even when other processes busy the CPUs");
   bench->add_option("--repeat", benchRepeat, "Repetitions; the median is reported")->check(CLI::Range(1, 1000));
   bench->add_flag("--json", benchJson, "JSON lines instead of a table");
   std::vector<std::string> benchSets;
@@ -166,7 +172,8 @@ int main(int argc, char** argv) {
       if (outOption->count() > 0 && outPath.empty()) {
         throw InputError("-o/--output: empty path (expected an output file path)");
       }
-      if (threads > 0) setThreadCount(threads);
+      setThreadAdaptation(!fixedThreads);
+      requestThreads(threads > 0 ? threads : defaultThreadCount());
       const Scenario sc = loadScenario(scenarioFile, overridesFrom(sets, frames, seed));
       for (const auto& w : sc.warnings) std::fprintf(stderr, "swarmsim: warning: %s\n", w.c_str());
       RunOptions opt;
@@ -210,6 +217,8 @@ int main(int argc, char** argv) {
       return kExitOk;
     }
     if (*bench) {
+      setThreadAdaptation(!fixedThreads);
+      requestThreads(defaultThreadCount());
       BenchOptions opt;
       opt.scenarios = benchFiles;
       opt.overrides = benchSets;

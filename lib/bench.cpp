@@ -8,6 +8,7 @@
 
 #include "core/error.hpp"
 #include "core/parallel.hpp"
+#include "core/threads.hpp"
 #include "core/rng.hpp"
 #include "io/scenario.hpp"
 #include "orca/orca.hpp"
@@ -160,7 +161,7 @@ void runOrcaBench(const BenchOptions& options, const std::vector<std::int64_t>& 
     while (side * side * side < n) ++side;
     const float extent = spacing * static_cast<float>(side - 1);
     for (const int threads : threadList) {
-      setThreadCount(threads);
+      requestThreads(threads);
       std::vector<double> pre, neighbours, lp, grid, total;
       std::size_t infeasible = 0;
       for (int r = 0; r < std::max(1, options.repeat); ++r) {
@@ -181,6 +182,7 @@ void runOrcaBench(const BenchOptions& options, const std::vector<std::int64_t>& 
         orca::Solver solver;
         pre.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
         for (std::int64_t s = 0; s <= steps; ++s) {  // step 0: warm-up, sizes the scratch buffers
+          threadTick();  // as Simulation::step does: fewer threads on a busy machine
           const auto g0 = Clock::now();
           // as a model does: cells as the k-nearest search wants them, so the solver searches this grid
           uniformGrid.build(x.data(), y.data(), z.data(), n, solver.suggestedCell(params));
@@ -296,7 +298,7 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
       if (agents > 0) rescaleAgents(json, agents, src.label);
       const Scenario sc = parseScenario(json, src.label);
       for (const int threads : threadList) {
-        setThreadCount(threads);
+        requestThreads(threads);
         const std::int64_t frames = options.frames > 0 ? options.frames : std::min<std::int64_t>(sc.frames, 10);
         const std::int64_t steps = std::max<std::int64_t>(1, frames * sc.stepsPerFrame);
         std::vector<double> pre, rate;

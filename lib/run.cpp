@@ -121,6 +121,7 @@ void Simulation::step() {
     models_[i]->step(world_, swarms_[i], StepInfo{step_, static_cast<std::uint32_t>(i), time()});
   }
   ++step_;
+  threadTick();  // fewer threads while other processes hold CPUs
 }
 
 void Simulation::takeFrameStats(std::vector<std::vector<double>>& out) {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/swarm_state.hpp"
+#include "core/threads.hpp"
 #include "io/checkpoint.hpp"
 #include "io/scenario.hpp"
 #include "models/model.hpp"

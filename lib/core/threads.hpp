@@ -1,0 +1,33 @@
+#pragma once
+// How many threads to use (docs/cli.md#threads).
+//   - The default is the CPUs this process may run on: its CPU affinity (taskset,
+//     a batch scheduler's core binding) and its cgroup CPU quota (containers,
+//     systemd, Slurm), whichever is smaller; OMP_NUM_THREADS, when set, wins.
+//   - The thread governor adapts the team to a busy machine: every half second it
+//     compares the busy time of those CPUs (/proc/stat) with this process's own
+//     CPU time, and when other processes hold some of the CPUs it uses only the
+//     CPUs left free (at least one thread, at most the requested number), going
+//     back up when they are free again. Results do not depend on the number of
+//     threads, so this changes only the speed.
+namespace swarmsim {
+
+// CPUs this process may use: affinity, then the cgroup quota (at least 1)
+int availableCpus();
+// the default thread count (OMP_NUM_THREADS if set, else availableCpus())
+int defaultThreadCount();
+// process-wide: whether ThreadGovernors adapt (default true; --fixed-threads)
+void setThreadAdaptation(bool on);
+bool threadAdaptation();
+
+// The process's thread team (one per process: it follows the machine across
+// simulations, bench repetitions and thread counts).
+// requestThreads(n): n threads on an idle machine (the team is set at once,
+// fewer if the machine was last seen busy); threadTick(): call between steps;
+// cheap (a clock read), and every ~0.5 s a look at the machine.
+void requestThreads(int n);
+void threadTick();
+// threads in use now, and how often the governor changed them
+int threadsInUse();
+int threadChanges();
+
+}  // namespace swarmsim

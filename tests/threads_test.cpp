@@ -1,0 +1,110 @@
+// Thread counts: the default follows CPU affinity and the cgroup CPU quota;
+// the governor uses fewer threads while another process holds a CPU.
+#include <sched.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <thread>
+
+#include <catch2/catch.hpp>
+
+#include "core/parallel.hpp"
+#include "core/threads.hpp"
+#include "test_util.hpp"
+
+using swarmsim_test::TempDir;
+
+namespace {
+
+// restores the affinity mask and an environment variable on scope exit
+struct AffinityGuard {
+  cpu_set_t saved;
+  AffinityGuard() { sched_getaffinity(0, sizeof saved, &saved); }
+  ~AffinityGuard() { sched_setaffinity(0, sizeof saved, &saved); }
+};
+
+}  // namespace
+
+TEST_CASE("Default threads follow the CPU affinity", "[threads]") {
+  AffinityGuard guard;
+  cpu_set_t one;
+  CPU_ZERO(&one);
+  CPU_SET(sched_getcpu(), &one);
+  REQUIRE(sched_setaffinity(0, sizeof one, &one) == 0);
+  CHECK(swarmsim::availableCpus() == 1);
+}
+
+TEST_CASE("Default threads follow the cgroup CPU quota", "[threads]") {
+  TempDir dir;
+  namespace fs = std::filesystem;
+  fs::create_directories(dir.path() / "job" / "step");
+  swarmsim_test::writeText(dir.file("self.cgroup"), "0::/job/step\n");
+  const int all = swarmsim::availableCpus();
+  setenv("SWARMSIM_CGROUP_ROOT", dir.path().c_str(), 1);
+  // unlimited at the process's own level, a quota of half a CPU above it (cgroup v2)
+  swarmsim_test::writeText(dir.file("job/step/cpu.max"), "max 100000\n");
+  swarmsim_test::writeText(dir.file("job/cpu.max"), "50000 100000\n");
+  CHECK(swarmsim::availableCpus() == 1);
+  // 1.5 CPUs: two threads (rounded up), never more than the affinity allows
+  swarmsim_test::writeText(dir.file("job/cpu.max"), "150000 100000\n");
+  CHECK(swarmsim::availableCpus() == std::min(all, 2));
+  // cgroup v1
+  fs::remove(dir.file("job/cpu.max"));
+  fs::remove(dir.file("job/step/cpu.max"));
+  fs::create_directories(dir.path() / "cpu");
+  swarmsim_test::writeText(dir.file("cpu/cpu.cfs_quota_us"), "100000\n");
+  swarmsim_test::writeText(dir.file("cpu/cpu.cfs_period_us"), "100000\n");
+  CHECK(swarmsim::availableCpus() == 1);
+  swarmsim_test::writeText(dir.file("cpu/cpu.cfs_quota_us"), "-1\n");
+  CHECK(swarmsim::availableCpus() == all);
+  unsetenv("SWARMSIM_CGROUP_ROOT");
+}
+
+TEST_CASE("The thread governor yields a CPU another process holds", "[threads]") {
+  if (swarmsim::availableCpus() < 2) {
+    WARN("skipped: needs two CPUs");
+    return;
+  }
+  // a competing process spinning on one of our CPUs
+  cpu_set_t set;
+  sched_getaffinity(0, sizeof set, &set);
+  int hogCpu = -1;
+  for (int c = CPU_SETSIZE - 1; c >= 0 && hogCpu < 0; --c) {
+    if (CPU_ISSET(c, &set)) hogCpu = c;
+  }
+  const pid_t hog = fork();
+  REQUIRE(hog >= 0);
+  if (hog == 0) {
+    cpu_set_t one;
+    CPU_ZERO(&one);
+    CPU_SET(hogCpu, &one);
+    sched_setaffinity(0, sizeof one, &one);
+    volatile unsigned long x = 0;
+    for (;;) x = x + 1;
+  }
+  swarmsim::setThreadAdaptation(true);
+  swarmsim::requestThreads(2);
+  // work between ticks, as steps would be
+  const auto t0 = std::chrono::steady_clock::now();
+  while (std::chrono::steady_clock::now() - t0 < std::chrono::milliseconds(1600)) {
+    volatile double s = 0.0;
+    for (int i = 0; i < 200000; ++i) s = s + i * 1e-9;
+    swarmsim::threadTick();
+  }
+  const int busy = swarmsim::threadsInUse();
+  kill(hog, SIGKILL);
+  waitpid(hog, nullptr, 0);
+  CHECK(busy == 1);
+  CHECK(swarmsim::threadCount() == busy);
+  // --fixed-threads: the requested count whatever the machine does
+  swarmsim::setThreadAdaptation(false);
+  swarmsim::requestThreads(2);
+  CHECK(swarmsim::threadsInUse() == 2);
+  CHECK(swarmsim::threadCount() == 2);
+  swarmsim::setThreadAdaptation(true);
+  swarmsim::requestThreads(swarmsim::defaultThreadCount());
+}
