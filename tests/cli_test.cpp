@@ -36,10 +36,7 @@ const std::string kTiny = kSourceDir + "/tests/data/tiny.json";
 const std::string kBadParam = kSourceDir + "/tests/data/bad_param.json";
 
 // run `swarmsim ARGS` (ARGS already shell-quoted where needed) in `dir`
-CommandResult runCli(const std::string& args, const TempDir& dir) {
-  return swarmsim_test::runCommand("cd " + shellQuote(dir.path().string()) + " && " + shellQuote(kExe) + " " + args,
-                                   dir.path());
-}
+CommandResult runCli(const std::string& args, const TempDir& dir) { return swarmsim_test::runSwarmsim(args, dir.path()); }
 
 Json parseJsonOrFail(const std::string& text) {
   const Json j = Json::parse(text, nullptr, false);

@@ -18,7 +18,6 @@
 #include "io/trajectory_reader.hpp"
 #include "test_util.hpp"
 
-using swarmsim_test::CommandResult;
 using swarmsim_test::shellQuote;
 using swarmsim_test::TempDir;
 using Catch::Matchers::Contains;
@@ -27,13 +26,11 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const std::string kExe = SWARMSIM_EXE;
-const std::string kSourceDir = SWARMSIM_SOURCE_DIR;
-const std::string kTiny = kSourceDir + "/tests/data/tiny.json";
+const std::string& kExe = swarmsim_test::kSwarmsimExe;
+const std::string kTiny = swarmsim_test::kSourceTree + "/tests/data/tiny.json";
 
-CommandResult runCli(const std::string& args, const TempDir& dir) {
-  return swarmsim_test::runCommand("cd " + shellQuote(dir.path().string()) + " && " + shellQuote(kExe) + " " + args,
-                                   dir.path());
+swarmsim_test::CommandResult runCli(const std::string& args, const TempDir& dir) {
+  return swarmsim_test::runSwarmsim(args, dir.path());
 }
 
 std::string tinyRun(const std::string& out, const std::string& extra = "") {

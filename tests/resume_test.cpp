@@ -28,9 +28,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const std::string kExe = SWARMSIM_EXE;
-const std::string kSourceDir = SWARMSIM_SOURCE_DIR;
-const std::string kMulti = kSourceDir + "/tests/data/multi_model.json";
+const std::string& kExe = swarmsim_test::kSwarmsimExe;
+const std::string kMulti = swarmsim_test::kSourceTree + "/tests/data/multi_model.json";
 
 std::vector<std::string> runArgs(const std::vector<std::string>& extra) {
   std::vector<std::string> a = {kExe, "run", kMulti, "-o", "out.h5", "--quiet"};

@@ -99,6 +99,15 @@ inline CommandResult runCommand(const std::string& commandLine, const fs::path& 
   return r;
 }
 
+// the built swarmsim binary and the source tree (compile definitions of the test target)
+inline const std::string kSwarmsimExe = SWARMSIM_EXE;
+inline const std::string kSourceTree = SWARMSIM_SOURCE_DIR;
+
+// run `swarmsim ARGS` (ARGS already shell-quoted where needed) in `dir`
+inline CommandResult runSwarmsim(const std::string& args, const fs::path& dir) {
+  return runCommand("cd " + shellQuote(dir.string()) + " && " + shellQuote(kSwarmsimExe) + " " + args, dir);
+}
+
 // A child process running `args` (args[0] is the program) in `dir`, stdout and
 // stderr to files there; for tests that signal a run while it works.
 struct Child {
