@@ -32,7 +32,8 @@ const std::string& kExe = swarmsim_test::kSwarmsimExe;
 const std::string kMulti = swarmsim_test::kSourceTree + "/tests/data/multi_model.json";
 
 std::vector<std::string> runArgs(const std::vector<std::string>& extra) {
-  std::vector<std::string> a = {kExe, "run", kMulti, "-o", "out.h5", "--quiet"};
+  // 150 frames: a run of a few seconds, so that most stops land inside it
+  std::vector<std::string> a = {kExe, "run", kMulti, "-o", "out.h5", "--quiet", "--frames", "150"};
   a.insert(a.end(), extra.begin(), extra.end());
   return a;
 }
@@ -58,7 +59,7 @@ void killAndResume(int sig, int kills, const std::vector<std::string>& options, 
   REQUIRE(ref.size() > 1000);
 
   std::mt19937 rng(seed);
-  std::uniform_int_distribution<int> delay(0, 900);  // ms after the partial file appears
+  std::uniform_int_distribution<int> delay(0, 600);  // ms after the partial file appears
   int stoppedMidway = 0;
   for (int k = 0; k < kills; ++k) {
     std::vector<std::string> extra = options;
@@ -177,7 +178,7 @@ TEST_CASE("Resume refuses another scenario and explains leftovers", "[resume]") 
   CHECK_FALSE(fs::exists(dir.file(".out.h5.ckpt")));
   // --resume of a complete output does nothing
   const std::string before = swarmsim_test::readText(dir.file("out.h5"));
-  const Child d = swarmsim_test::spawnChild({kExe, "run", kMulti, "-o", "out.h5", "--resume"}, dir.path(), "d");
+  const Child d = swarmsim_test::spawnChild({kExe, "run", kMulti, "-o", "out.h5", "--frames", "150", "--resume"}, dir.path(), "d");
   const int st = swarmsim_test::waitChild(d.pid, 60000);
   REQUIRE(WIFEXITED(st));
   CHECK(WEXITSTATUS(st) == 0);

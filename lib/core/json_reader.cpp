@@ -2,12 +2,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
 #include "core/error.hpp"
 
 namespace swarmsim {
+
+namespace fs = std::filesystem;
 
 namespace {
 
@@ -35,16 +38,11 @@ std::size_t editDistance(const std::string& a, const std::string& b) {
 
 }  // namespace
 
-bool Range::contains(double v) const {
-  if (!std::isfinite(v)) return false;
-  if (loOpen ? !(v > lo) : !(v >= lo)) return false;
-  if (hiOpen ? !(v < hi) : !(v <= hi)) return false;
-  return true;
-}
+namespace {
 
-std::string Range::describe(const char* noun) const {
+// the wording of [lo, hi] with open or closed ends
+std::string describeInterval(const std::string& n, double lo, double hi, bool loOpen, bool hiOpen) {
   const bool hasLo = std::isfinite(lo), hasHi = std::isfinite(hi);
-  std::string n = noun;
   if (hasLo && hasHi) {
     return n + " in " + (loOpen ? "(" : "[") + formatNumber(lo) + ", " + formatNumber(hi) + (hiOpen ? ")" : "]");
   }
@@ -53,49 +51,239 @@ std::string Range::describe(const char* noun) const {
   return "a finite " + n.substr(n.find(' ') + 1);
 }
 
-Json parseJsonText(const std::string& text, const std::string& file) {
-  try {
-    return Json::parse(text);
-  } catch (const Json::parse_error& e) {
-    // turn the byte offset into line and column
-    const std::size_t end = std::min<std::size_t>(e.byte > 0 ? e.byte - 1 : 0, text.size());
-    std::size_t line = 1, col = 1;
-    for (std::size_t i = 0; i < end; ++i) {
-      if (text[i] == '\n') {
-        ++line;
-        col = 1;
+}  // namespace
+
+bool Range::contains(double v) const {
+  if (!std::isfinite(v)) return false;
+  if (loOpen ? !(v > lo) : !(v >= lo)) return false;
+  if (hiOpen ? !(v < hi) : !(v <= hi)) return false;
+  if (zeroExempt && v == 0.0) return true;
+  return v >= limitLo && v <= limitHi;
+}
+
+std::string Range::describe(const char* noun) const {
+  // the intersection of the key's range and the limits
+  double a = lo, b = hi;
+  bool aOpen = loOpen, bOpen = hiOpen;
+  if (limitLo > a || (limitLo == a && !aOpen)) {
+    a = limitLo;
+    aOpen = false;
+  }
+  if (limitHi < b || (limitHi == b && !bOpen)) {
+    b = limitHi;
+    bOpen = false;
+  }
+  const std::string text = describeInterval(noun, a, b, aOpen, bOpen);
+  return zeroExempt && !(a <= 0.0 && 0.0 <= b) ? "0 or " + text : text;
+}
+
+std::string Range::describeFor(const Json& v, const char* noun) const {
+  const Range own{lo, hi, loOpen, hiOpen};
+  if (v.is_number() && own.contains(v.get<double>())) return describe(noun);
+  return describeInterval(noun, lo, hi, loOpen, hiOpen);
+}
+
+namespace {
+
+// A JSON path for messages, shortened in the middle when very long (a path
+// at the depth limit is hundreds of "[0]")
+std::string shortPath(const std::string& path) {
+  if (path.size() <= 120) return path;
+  // cut before a '[' or '.', so that whole keys and indices remain
+  std::size_t head = path.find_last_of("[.", 70), tail = path.find_first_of("[.", path.size() - 40);
+  if (head == std::string::npos || head == 0) head = 70;
+  if (tail == std::string::npos) tail = path.size() - 40;
+  return path.substr(0, head) + "..." + path.substr(tail);
+}
+
+// line and column (1-based) of byte offset `pos` of text
+std::string lineColumn(const std::string& text, std::size_t pos) {
+  pos = std::min(pos, text.size());
+  std::size_t line = 1, col = 1;
+  for (std::size_t i = 0; i < pos; ++i) {
+    if (text[i] == '\n') {
+      ++line;
+      col = 1;
+    } else {
+      ++col;
+    }
+  }
+  return std::to_string(line) + ":" + std::to_string(col);
+}
+
+// Builds the DOM from nlohmann's SAX events (so no recursion depends on the
+// input), refusing nesting deeper than maxDepth and duplicate keys.
+class DomBuilder final : public nlohmann::json_sax<Json> {
+ public:
+  enum class Failure { kNone, kSyntax, kNumber, kDepth, kDuplicate };
+
+  // basePath/baseDepth: where the text goes in a larger document (--set)
+  DomBuilder(Json& root, std::size_t maxDepth, std::string basePath, std::size_t baseDepth)
+      : root_(root), maxDepth_(maxDepth), basePath_(std::move(basePath)), baseDepth_(baseDepth) {}
+
+  bool null() override { return put(Json(nullptr)); }
+  bool boolean(bool v) override { return put(Json(v)); }
+  bool number_integer(number_integer_t v) override { return put(Json(v)); }
+  bool number_unsigned(number_unsigned_t v) override { return put(Json(v)); }
+  bool number_float(number_float_t v, const string_t&) override { return put(Json(v)); }
+  bool string(string_t& v) override { return put(Json(std::move(v))); }
+  bool binary(binary_t& v) override { return put(Json::binary(std::move(v))); }  // not produced by JSON text
+  bool start_object(std::size_t) override { return open(Json::object()); }
+  bool start_array(std::size_t) override { return open(Json::array()); }
+  bool end_object() override { return close(); }
+  bool end_array() override { return close(); }
+  bool key(string_t& k) override {
+    Frame& f = stack_.back();
+    if (f.node->contains(k)) {
+      failure_ = Failure::kDuplicate;
+      const std::string where = pathTo(stack_.size() - 1);
+      message_ = "duplicate key \"" + k + "\" " +
+                 (where.empty() ? std::string("at the top level") : "in " + shortPath(where)) +
+                 " (expected each key at most once per object)";
+      return false;
+    }
+    f.key = k;
+    return true;
+  }
+  bool parse_error(std::size_t position, const std::string& token, const nlohmann::detail::exception& ex) override {
+    position_ = position;
+    token_ = token;
+    if (ex.id == 406) {  // out_of_range: a number too large for a double
+      failure_ = Failure::kNumber;
+    } else {
+      failure_ = Failure::kSyntax;
+      message_ = ex.what();
+      const auto colon = message_.find(": ", message_.find("parse error"));
+      if (colon != std::string::npos) message_ = message_.substr(colon + 2);
+    }
+    return false;
+  }
+
+  Failure failure() const { return failure_; }
+  const std::string& message() const { return message_; }
+  std::size_t position() const { return position_; }
+  const std::string& token() const { return token_; }
+
+ private:
+  struct Frame {
+    Json* node;
+    std::string key;  // objects: the key of the value being read
+  };
+
+  // JSON path of the value being read in frame `upTo - 1` (frames [0, upTo) are its ancestors)
+  std::string pathTo(std::size_t upTo) const {
+    std::string p = basePath_;
+    for (std::size_t i = 0; i < upTo; ++i) {
+      const Frame& f = stack_[i];
+      if (f.node->is_array()) {
+        p += "[" + std::to_string(f.node->size() - 1) + "]";
       } else {
-        ++col;
+        p += (p.empty() ? "" : ".") + f.key;
       }
     }
-    std::string reason = e.what();
-    const auto colon = reason.find(": ", reason.find("parse error"));
-    if (colon != std::string::npos) reason = reason.substr(colon + 2);
-    throw InputError(file + ":" + std::to_string(line) + ":" + std::to_string(col) + ": malformed JSON: " + reason);
-  } catch (const Json::out_of_range& e) {
-    // a number too large for a double (e.g. 1e999 would be Inf); locate the literal
-    std::string what = e.what(), literal;
-    const auto q1 = what.find('\''), q2 = what.rfind('\'');
-    if (q1 != std::string::npos && q2 > q1) literal = what.substr(q1 + 1, q2 - q1 - 1);
-    std::string where = file;
-    const auto pos = literal.empty() ? std::string::npos : text.find(literal);
-    if (pos != std::string::npos) {
-      const std::size_t line = 1 + static_cast<std::size_t>(std::count(text.begin(), text.begin() + static_cast<long>(pos), '\n'));
-      const auto nl = text.rfind('\n', pos);
-      const std::size_t col = pos - (nl == std::string::npos ? 0 : nl + 1) + 1;
-      where += ":" + std::to_string(line) + ":" + std::to_string(col);
+    return p;
+  }
+  // where the next value goes
+  Json* slot() {
+    if (stack_.empty()) return &root_;
+    Frame& f = stack_.back();
+    if (f.node->is_array()) {
+      f.node->push_back(nullptr);
+      return &f.node->back();
     }
-    throw InputError(where + ": expected a finite number, got " + (literal.empty() ? "an out-of-range number" : literal) +
-                     " (out of range: it would be Inf)");
+    return &(*f.node)[f.key];
+  }
+  bool put(Json v) {
+    *slot() = std::move(v);
+    return true;
+  }
+  bool open(Json v) {
+    Json* s = slot();
+    if (baseDepth_ + stack_.size() >= maxDepth_) {
+      failure_ = Failure::kDepth;
+      message_ = shortPath(pathTo(stack_.size())) + ": nested deeper than " + std::to_string(maxDepth_) +
+                 " levels (expected at most " + std::to_string(maxDepth_) + " levels of arrays and objects)";
+      return false;
+    }
+    *s = std::move(v);
+    stack_.push_back({s, {}});
+    return true;
+  }
+  bool close() {
+    stack_.pop_back();
+    return true;
+  }
+
+  Json& root_;
+  std::size_t maxDepth_;
+  std::string basePath_;
+  std::size_t baseDepth_;
+  std::vector<Frame> stack_;
+  Failure failure_ = Failure::kNone;
+  std::string message_, token_;
+  std::size_t position_ = 0;
+};
+
+}  // namespace
+
+Json parseJsonText(const std::string& text, const std::string& file) {
+  Json root;
+  DomBuilder dom(root, kMaxJsonDepth, "", 0);
+  if (Json::sax_parse(text, &dom)) return root;
+  switch (dom.failure()) {
+    case DomBuilder::Failure::kSyntax: {
+      // the parser's byte count is one past the offending character
+      const std::size_t at = dom.position() > 0 ? dom.position() - 1 : 0;
+      throw InputError(file + ":" + lineColumn(text, at) + ": malformed JSON: " + dom.message());
+    }
+    case DomBuilder::Failure::kNumber: {
+      // a number too large for a double (e.g. 1e999 would be Inf): the literal ends before the position
+      const std::string& literal = dom.token();
+      std::string where = file;
+      const std::size_t end = std::min(dom.position(), text.size());
+      const auto pos = literal.empty() ? std::string::npos : text.rfind(literal, end);
+      if (pos != std::string::npos) where += ":" + lineColumn(text, pos);
+      throw InputError(where + ": expected a finite number, got " +
+                       (literal.empty() ? std::string("an out-of-range number") : literal) +
+                       " (out of range: it would be Inf)");
+    }
+    default:
+      throw InputError(file + ": " + dom.message());
   }
 }
 
+std::optional<Json> parseJsonValue(const std::string& text, const std::string& where, const std::string& path,
+                                   std::size_t depth) {
+  Json root;
+  DomBuilder dom(root, kMaxJsonDepth, path, depth);
+  if (Json::sax_parse(text, &dom)) return root;
+  if (dom.failure() == DomBuilder::Failure::kSyntax || dom.failure() == DomBuilder::Failure::kNumber) {
+    return std::nullopt;
+  }
+  throw InputError(where + ": " + dom.message());
+}
+
 Json readJsonFile(const std::string& path) {
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) {
+    throw InputError(path + ": cannot read file (it is a directory; expected a JSON scenario file)");
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path + ": cannot open file (expected a readable JSON scenario)");
-  std::ostringstream buf;
-  buf << in.rdbuf();
-  return parseJsonText(buf.str(), path);
+  // read in blocks up to the limit, so a device or pipe without end (/dev/zero) is refused
+  std::string text;
+  std::vector<char> block(1 << 16);
+  while (in) {
+    in.read(block.data(), static_cast<std::streamsize>(block.size()));
+    text.append(block.data(), static_cast<std::size_t>(in.gcount()));
+    if (text.size() > kMaxJsonFileBytes) {
+      throw InputError(path + ": file is larger than " + std::to_string(kMaxJsonFileBytes >> 20) +
+                       " MiB (expected a JSON scenario of at most " + std::to_string(kMaxJsonFileBytes >> 20) +
+                       " MiB)");
+    }
+  }
+  if (in.bad()) throw InputError(path + ": cannot read file (read error; expected a readable JSON scenario)");
+  return parseJsonText(text, path);
 }
 
 std::string describeValue(const Json& v) {
@@ -175,9 +363,9 @@ void JsonReader::record(const std::string& key, Json value) {
 }
 
 double JsonReader::checkedNumber(const std::string& key, const Json& v, Range range) const {
-  if (!v.is_number()) failExpected(key, range.describe(), v);
+  if (!v.is_number()) failExpected(key, range.describeFor(v), v);
   const double d = v.get<double>();
-  if (!range.contains(d)) failExpected(key, range.describe(), v);
+  if (!range.contains(d)) failExpected(key, range.describeFor(v), v);
   return d;
 }
 
@@ -231,6 +419,27 @@ std::int64_t JsonReader::requireInteger(const std::string& key, std::int64_t lo,
   return value;
 }
 
+std::uint64_t JsonReader::unsignedInteger(const std::string& key, std::uint64_t fallback) {
+  const Json* v = lookup(key);
+  std::uint64_t value = fallback;
+  if (v) {
+    const std::string expected = "an integer in [0, " + std::to_string(std::numeric_limits<std::uint64_t>::max()) + "]";
+    if (v->is_number_unsigned()) {
+      value = v->get<std::uint64_t>();
+    } else if (v->is_number_float() && std::floor(v->get<double>()) == v->get<double>() && v->get<double>() >= 0.0 &&
+               v->get<double>() < 9e15) {
+      value = static_cast<std::uint64_t>(v->get<double>());  // 1e5 is an integer too (exactly, below 2^53)
+    } else if (v->is_number() && v->get<double>() < 0.0) {
+      failExpected(key, "an integer >= 0", *v);
+    } else {
+      // fractional, or beyond 2^64 - 1 (which the JSON parser reads as a float), or not a number
+      failExpected(key, expected, *v);
+    }
+  }
+  record(key, value);
+  return value;
+}
+
 bool JsonReader::boolean(const std::string& key, bool fallback) {
   const Json* v = lookup(key);
   if (v && !v->is_boolean()) failExpected(key, "true or false", *v);
@@ -275,7 +484,7 @@ Vec3d JsonReader::checkedVec3(const std::string& key, const Json& v, Range range
   for (int i = 0; i < 3; ++i) {
     const Json& c = v[static_cast<std::size_t>(i)];
     if (!c.is_number() || !range.contains(c.get<double>())) {
-      fail(key + "[" + std::to_string(i) + "]", "expected " + range.describe() + ", got " + describeValue(c));
+      fail(key + "[" + std::to_string(i) + "]", "expected " + range.describeFor(c) + ", got " + describeValue(c));
     }
     out[i] = c.get<double>();
   }

@@ -6,14 +6,14 @@
 // range, finite) and recorded, with its default filled in, into a "resolved"
 // JSON object, so the resolved scenario can be printed and stored. `finish()`
 // reports any key that was never read, which catches typos.
+#include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "core/vec.hpp"
 
@@ -21,27 +21,84 @@ namespace swarmsim {
 
 using Json = nlohmann::json;
 
-// allowed range of a number, with its wording for error messages
+// Magnitude limits of scenario values (docs/scenario.md#limits). The agents'
+// state is float (largest value ~3.4e38, 24-bit mantissa). With every
+// position within kMaxCoordinate, every speed within kMaxSpeed and dt within
+// [kMinDt, kMaxDt], one step moves an agent at most kMaxSpeed * kMaxDt = 1e9 m,
+// squared distances stay below ~1e19 and 1/dt, 1/dt^2 below 1e12, so the
+// float computations of every model stay finite; below kMinLength,
+// kMinSpeed and kMinDuration a positive value would round to 0 or divide to
+// Inf in float, or vanish below the resolution of positions.
+constexpr double kMaxCoordinate = 1e9;  // m: any position (domain, spawn, obstacles, goals, stimuli, ...)
+constexpr double kMaxLength = 1e9;      // m: radii, zones, distances, margins
+constexpr double kMinLength = 1e-6;     // m: smallest positive length (1 µm)
+constexpr double kMaxSpeed = 1e6;       // m/s: speeds and velocity weights
+constexpr double kMinSpeed = 1e-6;      // m/s: smallest positive speed where one must be > 0
+constexpr double kMinDt = 1e-6;         // s
+constexpr double kMaxDt = 1e3;          // s
+constexpr double kMinDuration = 1e-6;   // s: time horizons, response times
+constexpr double kMaxDuration = 1e9;    // s
+
+// Allowed range of a number, with its wording for error messages: the range
+// of the key's meaning (e.g. > 0) and, on top, the magnitude limits above
+// (closed; 0 may be exempt). A number outside the first is reported with its
+// wording ("a number > 0"), one outside the limits with the combined range
+// ("a number in [1e-06, 1000]").
 struct Range {
   double lo = -std::numeric_limits<double>::infinity();
   double hi = std::numeric_limits<double>::infinity();
   bool loOpen = false;
   bool hiOpen = false;
+  double limitLo = -std::numeric_limits<double>::infinity();
+  double limitHi = std::numeric_limits<double>::infinity();
+  bool zeroExempt = false;  // 0 is allowed whatever the limits ("0 or a number in [a, b]")
 
   static Range any() { return {}; }
   static Range positive() { return {0.0, std::numeric_limits<double>::infinity(), true, false}; }
   static Range nonNegative() { return {0.0, std::numeric_limits<double>::infinity(), false, false}; }
   static Range atLeast(double v) { return {v, std::numeric_limits<double>::infinity(), false, false}; }
   static Range closed(double a, double b) { return {a, b, false, false}; }
+  // this range, limited to [a, b] (0 exempt if zeroToo)
+  Range limited(double a, double b, bool zeroToo = false) const {
+    Range r = *this;
+    r.limitLo = a;
+    r.limitHi = b;
+    r.zeroExempt = zeroToo;
+    return r;
+  }
+  // the limits above
+  static Range coordinate() { return any().limited(-kMaxCoordinate, kMaxCoordinate); }
+  static Range length() { return positive().limited(kMinLength, kMaxLength); }  // a positive length
+  static Range lengthOrZero() { return nonNegative().limited(kMinLength, kMaxLength, true); }
+  static Range speed() { return nonNegative().limited(0.0, kMaxSpeed); }
+  static Range positiveSpeed() { return positive().limited(kMinSpeed, kMaxSpeed); }
+  static Range duration() { return positive().limited(kMinDuration, kMaxDuration); }
 
   bool contains(double v) const;
-  // e.g. "a number > 0", "a number in [0, 360]", "a finite number"
+  // e.g. "a number > 0", "a number in [0, 360]", "a finite number", "0 or a number in [1e-06, 1e+09]"
   std::string describe(const char* noun = "a number") const;
+  // the wording for an error about value v: without the limits unless v is a number that meets
+  // the key's own range (so that "-1" gets "a number >= 0")
+  std::string describeFor(const Json& v, const char* noun = "a number") const;
 };
 
-// parse JSON text; malformed text gives an InputError naming file, line and column
+// Limits of scenario JSON (docs/scenario.md#limits): at most this many levels
+// of nested arrays and objects, and files of at most this many bytes.
+constexpr std::size_t kMaxJsonDepth = 256;
+constexpr std::size_t kMaxJsonFileBytes = std::size_t{64} << 20;  // 64 MiB
+
+// Parse JSON text into a DOM (nlohmann's SAX interface, so no recursion that
+// depends on the input). An InputError names `file` and: line and column for
+// malformed text or a number too large for a double; the JSON path for a
+// duplicate key or nesting deeper than kMaxJsonDepth.
 Json parseJsonText(const std::string& text, const std::string& file);
-// read and parse a JSON file
+// As parseJsonText for a value that goes at JSON path `path`, under `depth`
+// levels of arrays and objects (a --set value): malformed text gives nullopt;
+// duplicate keys and nesting beyond kMaxJsonDepth in all give an InputError
+// starting with `where`.
+std::optional<Json> parseJsonValue(const std::string& text, const std::string& where, const std::string& path,
+                                   std::size_t depth);
+// read (at most kMaxJsonFileBytes; a directory is refused) and parse a JSON file
 Json readJsonFile(const std::string& path);
 // compact, length-limited rendering of a value for error messages
 std::string describeValue(const Json& v);
@@ -61,6 +118,8 @@ class JsonReader {
   double requireNumber(const std::string& key, Range range = Range::any());
   std::int64_t integer(const std::string& key, std::int64_t fallback, std::int64_t lo, std::int64_t hi);
   std::int64_t requireInteger(const std::string& key, std::int64_t lo, std::int64_t hi);
+  // any integer in [0, 2^64 - 1], kept exactly (seeds)
+  std::uint64_t unsignedInteger(const std::string& key, std::uint64_t fallback);
   bool boolean(const std::string& key, bool fallback);
   std::string string(const std::string& key, const std::string& fallback);
   std::string requireString(const std::string& key);

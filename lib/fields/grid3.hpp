@@ -41,12 +41,14 @@ struct GridSpec {
     return center(static_cast<int>(c % n[0]), static_cast<int>((c / n[0]) % n[1]), static_cast<int>(c / plane));
   }
   Vec3d max() const { return min + Vec3d(n[0] * cell[0], n[1] * cell[1], n[2] * cell[2]); }
-  // the cell containing p, clamped to the grid
+  // the cell containing p, clamped to the grid (any p: clamped in floating
+  // point before the conversion, so a huge or infinite t cannot overflow the
+  // int; NaN gives cell 0)
   std::array<int, 3> cellOf(const Vec3d& p) const {
     std::array<int, 3> c{};
     for (int a = 0; a < 3; ++a) {
       const double t = (p[a] - min[a]) / cell[a];
-      c[a] = t > 0.0 ? std::min(n[a] - 1, static_cast<int>(t)) : 0;
+      c[a] = t > 0.0 ? static_cast<int>(std::min(t, static_cast<double>(n[a] - 1))) : 0;
     }
     return c;
   }
@@ -64,7 +66,8 @@ struct Grid3 {
   const T& at(int i, int j, int k) const { return data[spec.index(i, j, k)]; }
 
   // trilinear interpolation between cell centres; outside the centres' box
-  // the nearest boundary values are used (clamped)
+  // the nearest boundary values are used (clamped; t is compared in floating
+  // point before any conversion, so huge or NaN coordinates are safe)
   T sample(const Vec3& p) const {
     int i0[3];
     float f[3];

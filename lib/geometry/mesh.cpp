@@ -27,6 +27,9 @@ namespace {
 
 // cosine and sine of an angle in degrees, exact for multiples of 90
 void cosSinDeg(double deg, double& c, double& s) {
+  // one turn at most first (fmod is exact, so multiples of 90 stay exact), so the
+  // conversion of the quarter turns to an integer cannot overflow for any angle
+  deg = std::fmod(deg, 360.0);
   const double quarter = deg / 90.0;
   if (quarter == std::round(quarter)) {
     const long long q = static_cast<long long>(std::round(quarter)) % 4;
@@ -248,7 +251,7 @@ std::string trimmed(std::string s) {
 
 }  // namespace
 
-TriangleMesh loadObj(const std::string& path, const MeshTransform& t) {
+TriangleMesh loadObj(const std::string& path, const MeshTransform& t, double maxCoordinate) {
   // read the whole file (once: validation and tinyobjloader parse the same text)
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) throw InputError(path + ": cannot open OBJ file (it is a directory)");
@@ -288,6 +291,12 @@ TriangleMesh loadObj(const std::string& path, const MeshTransform& t) {
     if (!p.allFinite()) fail(path, vertexLines[v], "vertex is not finite");
     const Vec3d q = t.translate + rotation * t.scale.cwiseProduct(p);
     if (!q.allFinite()) fail(path, vertexLines[v], "vertex is not finite after the transform");
+    if (!(q.cwiseAbs().maxCoeff() <= maxCoordinate)) {
+      std::ostringstream where;
+      where << "vertex placed at (" << q.x() << ", " << q.y() << ", " << q.z()
+            << ") by translate, rotate and scale (expected every coordinate within +-" << maxCoordinate << " m)";
+      fail(path, vertexLines[v], where.str());
+    }
     mesh.vertices.push_back(q);
   }
 

@@ -10,12 +10,12 @@
 // removed first. All groups and objects of the file are merged into one mesh;
 // normals, texture coordinates and materials are ignored (mtllib lines are not
 // followed).
+#include <Eigen/Geometry>
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
-
-#include <Eigen/Geometry>
 
 #include "core/vec.hpp"
 
@@ -50,8 +50,10 @@ struct MeshTransform {
 // missing, not a number or not finite (in the loader's precision), has a face
 // with fewer than three vertices or an index out of range (absolute indices
 // count all 'v' lines of the file, negative ones the 'v' lines before the
-// face), or is rejected by tinyobjloader.
-TriangleMesh loadObj(const std::string& path, const MeshTransform& t = MeshTransform());
+// face), or is rejected by tinyobjloader, or when a placed vertex has a
+// coordinate of magnitude above maxCoordinate (the scenario's limit).
+TriangleMesh loadObj(const std::string& path, const MeshTransform& t = MeshTransform(),
+                     double maxCoordinate = std::numeric_limits<double>::max());
 
 // True when every undirected edge (by vertex index) belongs to exactly two
 // triangles that use it in opposite directions (consistent orientation) and no

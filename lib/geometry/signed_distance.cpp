@@ -248,14 +248,17 @@ struct Range {
   int lo = 0, hi = -1;  // inclusive; empty when lo > hi
 };
 
+// Cell positions are clamped in floating point before any conversion to int,
+// so bounds of any magnitude (huge, infinite) are safe; NaN gives an empty range.
+
 // cells whose centres lie in [lo, hi] along axis a (possibly empty)
 Range centresIn(const GridSpec& s, int a, double lo, double hi) {
   const double last = s.n[a] - 1;
-  const double flo = std::clamp((lo - s.min[a]) / s.cell[a] - 0.5, -1.0, last + 1.0);
-  const double fhi = std::clamp((hi - s.min[a]) / s.cell[a] - 0.5, -1.0, last + 1.0);
+  const double tlo = (lo - s.min[a]) / s.cell[a] - 0.5, thi = (hi - s.min[a]) / s.cell[a] - 0.5;
   Range r;
-  r.lo = std::max(0, static_cast<int>(std::ceil(flo)));
-  r.hi = std::min(s.n[a] - 1, static_cast<int>(std::floor(fhi)));
+  if (std::isnan(tlo) || std::isnan(thi)) return r;
+  r.lo = std::max(0, static_cast<int>(std::ceil(std::clamp(tlo, -1.0, last + 1.0))));
+  r.hi = std::min(s.n[a] - 1, static_cast<int>(std::floor(std::clamp(thi, -1.0, last + 1.0))));
   return r;
 }
 
@@ -263,8 +266,9 @@ Range centresIn(const GridSpec& s, int a, double lo, double hi) {
 Range centresNear(const GridSpec& s, int a, double lo, double hi) {
   Range r = centresIn(s, a, lo, hi);
   if (r.lo > r.hi) {
-    const double mid = (0.5 * (lo + hi) - s.min[a]) / s.cell[a] - 0.5;
-    r.lo = r.hi = static_cast<int>(std::clamp(std::round(mid), 0.0, static_cast<double>(s.n[a] - 1)));
+    const double mid = (0.5 * lo + 0.5 * hi - s.min[a]) / s.cell[a] - 0.5;  // halves first: no overflow
+    const double last = s.n[a] - 1;
+    r.lo = r.hi = std::isnan(mid) ? 0 : static_cast<int>(std::clamp(std::round(mid), 0.0, last));
   }
   return r;
 }
@@ -477,10 +481,15 @@ std::vector<std::int8_t> voteSigns(const TriangleMesh& mesh, const GridSpec& s, 
   Eigen::AlignedBox3d box = mesh.bounds();
   box.extend(s.min);
   box.extend(s.max());
-  const Vec3d origin = box.center();
-  const double extent = box.sizes().maxCoeff();
-  const double unit = extent > 0.0 ? std::ldexp(extent, -28) : 1.0;
-  auto snap = [&](double x, int a) { return static_cast<std::int64_t>(std::llround((x - origin[a]) / unit)); };
+  // centre and half extent from halves, finite for any finite coordinates
+  const Vec3d origin = 0.5 * box.min() + 0.5 * box.max();
+  const double halfExtent = (0.5 * box.max() - 0.5 * box.min()).maxCoeff();
+  const double unit = halfExtent > 0.0 ? std::ldexp(halfExtent, -27) : 1.0;
+  // |(x - origin) / unit| <= 2^27 inside the box; the clamp only guards the conversion
+  auto snap = [&](double x, int a) {
+    const double q = std::clamp((x - origin[a]) / unit, -0x1p29, 0x1p29);
+    return static_cast<std::int64_t>(std::llround(std::isnan(q) ? 0.0 : q));
+  };
   std::vector<Lattice> verts(mesh.vertices.size());
   for (std::size_t v = 0; v < verts.size(); ++v) {
     for (int a = 0; a < 3; ++a) verts[v][a] = snap(mesh.vertices[v][a], a);

@@ -1,9 +1,12 @@
 #include "io/scenario.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <optional>
 #include <set>
+#include <sstream>
 
 #include "core/error.hpp"
 #include "geometry/mesh.hpp"
@@ -16,15 +19,30 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr std::int64_t kMaxAgents = 200'000'000;
-constexpr std::int64_t kInt64Max = std::numeric_limits<std::int64_t>::max();
+
+std::string formatLimit(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+// a ball (spawn region, sphere obstacle) must lie within the coordinate limit
+void checkBallInLimits(const JsonReader& r, const Vec3d& center, double radius) {
+  const double reach = center.cwiseAbs().maxCoeff() + radius;
+  if (!(reach <= kMaxCoordinate)) {
+    r.fail("radius", "expected the ball within the coordinate limit (|x|, |y|, |z| <= " + formatLimit(kMaxCoordinate) +
+                         " m), got centre coordinate " + formatLimit(center.cwiseAbs().maxCoeff()) + " + radius " +
+                         formatLimit(radius));
+  }
+}
 
 SpawnRegion readSpawn(JsonReader r) {
   SpawnRegion s;
   const std::string type = r.choice("type", "box", {"box", "sphere"});
   if (type == "box") {
     s.kind = SpawnRegion::Kind::kBox;
-    s.min = r.requireVec3("min");
-    s.max = r.requireVec3("max");
+    s.min = r.requireVec3("min", Range::coordinate());
+    s.max = r.requireVec3("max", Range::coordinate());
     for (int a = 0; a < 3; ++a) {
       if (!(s.max[a] >= s.min[a])) r.fail("max", "expected max >= min on every axis, got " +
                                                     std::to_string(s.max[a]) + " < " + std::to_string(s.min[a]) +
@@ -32,8 +50,9 @@ SpawnRegion readSpawn(JsonReader r) {
     }
   } else {
     s.kind = SpawnRegion::Kind::kSphere;
-    s.center = r.requireVec3("center");
-    s.radius = r.requireNumber("radius", Range::nonNegative());
+    s.center = r.requireVec3("center", Range::coordinate());
+    s.radius = r.requireNumber("radius", Range::nonNegative().limited(0.0, kMaxLength));
+    checkBallInLimits(r, s.center, s.radius);
   }
   r.finish();
   return s;
@@ -49,7 +68,7 @@ std::shared_ptr<const Obstacles> readObstacles(JsonReader& r, const std::string&
       const std::string rel = o.requireString("file");
       const fs::path path = fs::path(rel).is_relative() ? fs::path(file).parent_path() / rel : fs::path(rel);
       MeshTransform t;
-      t.translate = o.vec3("translate", Vec3d::Zero());
+      t.translate = o.vec3("translate", Vec3d::Zero(), Range::coordinate());
       t.rotateDeg = o.vec3("rotate", Vec3d::Zero());
       const Json* scale = o.raw("scale");
       if (scale && scale->is_number()) {
@@ -61,7 +80,7 @@ std::shared_ptr<const Obstacles> readObstacles(JsonReader& r, const std::string&
       }
       TriangleMesh mesh;
       try {
-        mesh = loadObj(path.lexically_normal().string(), t);
+        mesh = loadObj(path.lexically_normal().string(), t, kMaxCoordinate);
       } catch (const InputError& e) {  // say which scenario entry referenced it
         throw InputError(file + ": " + o.pathOf("file") + ": " + e.what());
       }
@@ -72,13 +91,14 @@ std::shared_ptr<const Obstacles> readObstacles(JsonReader& r, const std::string&
       obs->meshes.push_back(std::move(mesh));
     } else if (type == "sphere") {
       SphereObstacle sp;
-      sp.center = o.requireVec3("center");
-      sp.radius = o.requireNumber("radius", Range::positive());
+      sp.center = o.requireVec3("center", Range::coordinate());
+      sp.radius = o.requireNumber("radius", Range::length());
+      checkBallInLimits(o, sp.center, sp.radius);
       obs->spheres.push_back(sp);
     } else {
       BoxObstacle b;
-      b.min = o.requireVec3("min");
-      b.max = o.requireVec3("max");
+      b.min = o.requireVec3("min", Range::coordinate());
+      b.max = o.requireVec3("max", Range::coordinate());
       for (int a = 0; a < 3; ++a) {
         if (!(b.max[a] > b.min[a])) o.fail("max", std::string("expected max > min on every axis (axis ") + "xyz"[a] + ")");
       }
@@ -92,8 +112,10 @@ std::shared_ptr<const Obstacles> readObstacles(JsonReader& r, const std::string&
 // the parts of a --set path: keys and indices
 struct PathPart {
   std::string key;
-  long index = -1;
+  long index = -1;     // clamped to kMaxIndex
+  std::string number;  // the index as written
 };
+constexpr long kMaxIndex = 1L << 40;
 
 std::vector<PathPart> splitPath(const std::string& path) {
   std::vector<PathPart> parts;
@@ -107,19 +129,27 @@ std::vector<PathPart> splitPath(const std::string& path) {
       if (close == std::string::npos) bad("missing ']'");
       const std::string num = path.substr(i + 1, close - i - 1);
       if (num.empty() || num.find_first_not_of("0123456789") != std::string::npos) bad("index is not a number");
-      parts.push_back({"", std::stol(num)});
+      // no array holds more than kMaxIndex elements: a longer index is out of range whatever its value
+      const std::string digits = num.substr(std::min(num.find_first_not_of('0'), num.size() - 1));
+      const long index = digits.size() > 10 ? kMaxIndex : std::min<long>(std::stol(digits), kMaxIndex);
+      parts.push_back({"", index, num});
       i = close + 1;
       if (i < path.size() && path[i] == '.') ++i;
     } else {
       const auto end = path.find_first_of(".[", i);
       const std::string key = path.substr(i, end == std::string::npos ? std::string::npos : end - i);
       if (key.empty()) bad("empty key");
-      parts.push_back({key, -1});
+      parts.push_back({key, -1, ""});
       i = end == std::string::npos ? path.size() : end;
       if (i < path.size() && path[i] == '.') ++i;
     }
   }
   if (parts.empty()) bad("empty path");
+  if (parts.size() > kMaxJsonDepth) {
+    throw InputError("--set " + path.substr(0, 60) + "...: path of " + std::to_string(parts.size()) +
+                     " keys and indices (expected at most " + std::to_string(kMaxJsonDepth) +
+                     ", the nesting limit of scenario JSON)");
+  }
   return parts;
 }
 
@@ -138,13 +168,15 @@ void applyOverride(Json& scenario, const std::string& assignment) {
   }
   const std::string path = assignment.substr(0, eq);
   const std::string text = assignment.substr(eq + 1);
-  Json value = Json::parse(text, nullptr, false);
-  if (value.is_discarded()) value = text;  // a plain string
+  const std::vector<PathPart> parts = splitPath(path);
+  // checked like a file: no duplicate keys, the whole scenario nested at most kMaxJsonDepth deep
+  std::optional<Json> parsed = parseJsonValue(text, "--set " + path, path, parts.size());
+  Json value = parsed ? std::move(*parsed) : Json(text);  // not JSON: a plain string
   Json* node = &scenario;
-  for (const auto& part : splitPath(path)) {
+  for (const auto& part : parts) {
     if (part.index >= 0) {
       if (!node->is_array() || static_cast<std::size_t>(part.index) >= node->size()) {
-        throw InputError("--set " + path + ": index [" + std::to_string(part.index) + "] is out of range (" +
+        throw InputError("--set " + path + ": index [" + part.number + "] is out of range (" +
                          (node->is_array() ? std::to_string(node->size()) + " elements" : std::string("not an array")) +
                          ")");
       }
@@ -202,18 +234,23 @@ Scenario parseScenario(const Json& json, const std::string& file) {
   if (sc.name.empty() || sc.name.find('/') != std::string::npos) {
     r.failExpected("name", "a non-empty name without '/'", sc.name);
   }
-  sc.seed = static_cast<std::uint64_t>(r.integer("seed", 1, 0, kInt64Max));
-  sc.dt = r.requireNumber("dt", Range::positive());
+  sc.seed = r.unsignedInteger("seed", 1);
+  sc.dt = r.requireNumber("dt", Range::positive().limited(kMinDt, kMaxDt));
   sc.frames = r.requireInteger("frames", 1, 100'000'000);
   sc.stepsPerFrame = r.integer("steps_per_frame", 1, 1, 1'000'000);
   {
     JsonReader d = r.object("domain", true);
-    sc.domain.min = d.requireVec3("min");
-    sc.domain.max = d.requireVec3("max");
+    sc.domain.min = d.requireVec3("min", Range::coordinate());
+    sc.domain.max = d.requireVec3("max", Range::coordinate());
     for (int a = 0; a < 3; ++a) {
       if (!(sc.domain.max[a] > sc.domain.min[a])) {
         d.fail("max", std::string("expected max > min on every axis, got ") + std::to_string(sc.domain.max[a]) +
                           " <= " + std::to_string(sc.domain.min[a]) + " on axis " + "xyz"[a]);
+      }
+      // a positive length (docs/scenario.md#limits): the models divide by the extent and its cells
+      if (!(sc.domain.max[a] - sc.domain.min[a] >= kMinLength)) {
+        d.fail("max", "expected max - min >= " + formatLimit(kMinLength) + " m on every axis, got " +
+                          formatLimit(sc.domain.max[a] - sc.domain.min[a]) + " on axis " + "xyz"[a]);
       }
     }
     d.finish();
@@ -235,7 +272,7 @@ Scenario parseScenario(const Json& json, const std::string& file) {
     total += spec.count;
     if (total > kMaxAgents) s.fail("count", "the scenario has more than " + std::to_string(kMaxAgents) + " agents");
     spec.spawn = readSpawn(s.object("spawn", true));
-    spec.initialSpeed = s.number("initial_speed", 0.0, Range::nonNegative());
+    spec.initialSpeed = s.number("initial_speed", 0.0, Range::speed());
     spec.model = s.requireString("model");
     const ModelEntry* entry = findModel(spec.model);
     if (!entry) {

@@ -1,6 +1,7 @@
 #include "models/params_util.hpp"
 
 #include <cmath>
+#include <sstream>
 
 namespace swarmsim {
 
@@ -36,8 +37,19 @@ void readKeyframes(JsonReader& r, std::vector<double>& times, std::vector<Vec3d>
     const double t = k.requireNumber("time", Range::nonNegative());
     if (!times.empty() && !(t > times.back())) k.failExpected("time", "a time later than the previous keyframe's", t);
     times.push_back(t);
-    centers.push_back(k.requireVec3("center"));
+    centers.push_back(k.requireVec3("center", Range::coordinate()));
     k.finish();
+  }
+}
+
+void checkNoiseFrequency(JsonReader& r, const std::string& key, const Aabb& domain, double value, double perMetre) {
+  // the domain's farthest coordinate, and a margin of a domain for the samples just outside it
+  const double reach = domain.min.cwiseAbs().cwiseMax(domain.max.cwiseAbs()).maxCoeff() + domain.extent().maxCoeff();
+  if (!(reach * value * perMetre <= kMaxNoiseLattice)) {
+    std::ostringstream m;
+    m << "expected a number <= " << kMaxNoiseLattice / (reach * perMetre) << " (the noise lattice may reach at most "
+      << kMaxNoiseLattice << " cells from the origin in this domain), got " << value;
+    r.fail(key, m.str());
   }
 }
 
@@ -46,7 +58,8 @@ std::array<int, 3> cellsForEdge(const Aabb& domain, double edge, double maxCells
   for (double factor = 1.0;; factor *= 1.05) {
     double total = 1.0;
     for (int a = 0; a < 3; ++a) {
-      n[a] = std::clamp(static_cast<int>(std::ceil(domain.extent()[a] / (edge * factor))), 4, 256);
+      // clamped in floating point before the conversion (a tiny edge must not overflow the int)
+      n[a] = static_cast<int>(std::clamp(std::ceil(domain.extent()[a] / (edge * factor)), 4.0, 256.0));
       total *= n[a];
     }
     if (total <= maxCells) return n;

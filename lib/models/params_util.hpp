@@ -33,6 +33,13 @@ T interpolateKeys(const std::vector<double>& times, const std::vector<T>& values
   return values[a] + f * (values[b] - values[a]);
 }
 
+// Perlin noise is evaluated at frequency * x (in lattice cells) and turns the lattice cell into an
+// integer. Refuses the value of `key` when frequency = value * perMetre (lattice cells per metre) takes
+// some point of the domain beyond kMaxNoiseLattice cells from the origin, where a double no longer
+// resolves the position inside a cell and the conversion could overflow.
+constexpr double kMaxNoiseLattice = 1e15;
+void checkNoiseFrequency(JsonReader& r, const std::string& key, const Aabb& domain, double value, double perMetre);
+
 // cells per axis covering `domain` with edges of about `edge` (each axis in [4, 256]),
 // the edge widened in steps of 5 % until there are at most maxCells
 std::array<int, 3> cellsForEdge(const Aabb& domain, double edge, double maxCells);

@@ -140,27 +140,30 @@ class Boids final : public Model {
 
 BoidsParams readBoidsParams(JsonReader& r, const ModelContext& context) {
   BoidsParams p;
-  p.speed = r.number("speed", p.speed, Range::positive());
-  p.maxSpeed = r.number("max_speed", std::max(p.maxSpeed, p.speed), Range::positive());
+  // limits: docs/scenario.md#limits (speeds and the velocity weights at most kMaxSpeed, lengths kMaxLength)
+  p.speed = r.number("speed", p.speed, Range::positiveSpeed());
+  p.maxSpeed = r.number("max_speed", std::max(p.maxSpeed, p.speed), Range::positiveSpeed());
   if (p.maxSpeed < p.speed) r.fail("max_speed", "expected a number >= speed (" + std::to_string(p.speed) + ")");
-  p.repulsionZone = r.number("repulsion_zone", p.repulsionZone, Range::nonNegative());
-  p.alignmentZone = r.number("alignment_zone", p.alignmentZone, Range::nonNegative());
-  p.attractionZone = r.number("attraction_zone", p.attractionZone, Range::nonNegative());
+  p.repulsionZone = r.number("repulsion_zone", p.repulsionZone, Range::lengthOrZero());
+  p.alignmentZone = r.number("alignment_zone", p.alignmentZone, Range::lengthOrZero());
+  p.attractionZone = r.number("attraction_zone", p.attractionZone, Range::lengthOrZero());
   if (!(p.repulsionZone + p.alignmentZone + p.attractionZone > 0.0)) {
     r.fail("attraction_zone", "the three zone widths add up to 0; expected a positive outer radius");
   }
   p.fieldOfView = r.number("field_of_view", p.fieldOfView, Range::closed(0.0, 360.0));
-  p.repulsion = r.number("repulsion", p.repulsion, Range::nonNegative());
-  p.alignment = r.number("alignment", p.alignment, Range::nonNegative());
-  p.attraction = r.number("attraction", p.attraction, Range::nonNegative());
-  p.centering = r.number("centering", p.centering, Range::nonNegative());
-  p.centeringRadius = r.number("centering_radius", p.centeringRadius, Range::nonNegative());
-  p.center = r.vec3("center", context.world.domain.center());
+  p.repulsion = r.number("repulsion", p.repulsion, Range::speed());
+  p.alignment = r.number("alignment", p.alignment, Range::speed());
+  p.attraction = r.number("attraction", p.attraction, Range::speed());
+  p.centering = r.number("centering", p.centering, Range::speed());
+  p.centeringRadius = r.number("centering_radius", p.centeringRadius, Range::lengthOrZero());
+  p.center = r.vec3("center", context.world.domain.center(), Range::coordinate());
   const Vec3d ext = context.world.domain.extent();
-  p.wallMargin = r.number("wall_margin", 0.1 * ext.minCoeff(), Range::positive());
-  p.wallForce = r.number("wall_force", p.wallForce, Range::nonNegative());
-  p.jitter = r.number("jitter", p.jitter, Range::nonNegative());
-  p.responseTime = r.number("response_time", p.responseTime, Range::nonNegative());
+  p.wallMargin = r.number("wall_margin", std::max(kMinLength, 0.1 * ext.minCoeff()), Range::length());
+  p.wallForce = r.number("wall_force", p.wallForce, Range::speed());
+  p.jitter = r.number("jitter", p.jitter, Range::speed());
+  // 0 (instant) or at most kMaxDuration: with dt >= kMinDt the blend 1 - exp(-dt / response_time) stays > 0 in
+  // double precision (dt / response_time >= 1e-15), else the noise term sqrt((2 - a) / a) would be Inf
+  p.responseTime = r.number("response_time", p.responseTime, Range::nonNegative().limited(0.0, kMaxDuration));
   return p;
 }
 

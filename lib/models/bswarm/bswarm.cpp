@@ -4,6 +4,8 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 #include "core/parallel.hpp"
 #include "core/rng.hpp"
@@ -34,7 +36,7 @@ Keyed3 readPath(JsonReader& r, const char* what) {
   readKeyframes(r, path.times, path.values);
   if (path.times.empty()) {
     path.times.push_back(0.0);
-    path.values.push_back(r.requireVec3("center"));
+    path.values.push_back(r.requireVec3("center", Range::coordinate()));
   } else if (r.has("center")) {
     r.fail("center", std::string("give either center or keyframes for ") + what + ", not both");
   }
@@ -48,7 +50,7 @@ StimulusSpec::Kind readKind(JsonReader& r) {
 }
 
 Vec3d readAxis(JsonReader& r, const std::string& key, const Vec3d& fallback) {
-  const Vec3d a = r.vec3(key, fallback);
+  const Vec3d a = r.vec3(key, fallback, Range::coordinate());  // bounded: the squared norm stays finite
   if (!(a.norm() > 0.0)) r.fail(key, "expected a non-zero vector");
   return a.normalized();
 }
@@ -59,20 +61,32 @@ struct DynamicField {
   double BswarmDynamic::*field;
   Range range;
 };
+// Limits (docs/scenario.md#limits): forces (m/s^2) and γ at most kMaxForce, so that they and
+// γ |v| v (|v| <= kMaxSpeed) stay finite in float; the zone radii at most kMaxZone: the
+// interaction's neighbour grid has cells of at least 1e-4 m and a zone may span at most
+// 1e9 cells (an int)
+constexpr double kMaxForce = 1e9;
+constexpr double kMaxZone = 1e5;
 const std::vector<DynamicField>& dynamicFields() {
   static const std::vector<DynamicField> fields = {
-      {"gamma", &BswarmDynamic::gamma, Range::nonNegative()},
-      {"gain", &BswarmDynamic::gain, Range::nonNegative()},
-      {"lambda_rep", &BswarmDynamic::lambdaRep, Range::nonNegative()},
-      {"lambda_ali", &BswarmDynamic::lambdaAli, Range::nonNegative()},
-      {"lambda_att", &BswarmDynamic::lambdaAtt, Range::nonNegative()},
-      {"r_rep", &BswarmDynamic::rRep, Range::positive()},
-      {"r_ali", &BswarmDynamic::rAli, Range::positive()},
-      {"r_att", &BswarmDynamic::rAtt, Range::positive()},
-      {"lambda_res", &BswarmDynamic::lambdaRes, Range::nonNegative()},
-      {"r_res", &BswarmDynamic::rRes, Range::nonNegative()},
+      {"gamma", &BswarmDynamic::gamma, Range::nonNegative().limited(0.0, kMaxForce)},
+      {"gain", &BswarmDynamic::gain, Range::nonNegative().limited(0.0, kMaxForce)},
+      {"lambda_rep", &BswarmDynamic::lambdaRep, Range::nonNegative().limited(0.0, kMaxForce)},
+      {"lambda_ali", &BswarmDynamic::lambdaAli, Range::nonNegative().limited(0.0, kMaxForce)},
+      {"lambda_att", &BswarmDynamic::lambdaAtt, Range::nonNegative().limited(0.0, kMaxForce)},
+      {"r_rep", &BswarmDynamic::rRep, Range::positive().limited(kMinLength, kMaxZone)},
+      {"r_ali", &BswarmDynamic::rAli, Range::positive().limited(kMinLength, kMaxZone)},
+      {"r_att", &BswarmDynamic::rAtt, Range::positive().limited(kMinLength, kMaxZone)},
+      {"lambda_res", &BswarmDynamic::lambdaRes, Range::nonNegative().limited(0.0, kMaxForce)},
+      {"r_res", &BswarmDynamic::rRes, Range::nonNegative().limited(0.0, kMaxLength)},
   };
   return fields;
+}
+const Range& rangeOf(const char* name) {
+  for (const auto& f : dynamicFields()) {
+    if (std::string(f.name) == name) return f.range;
+  }
+  throw std::logic_error(std::string("bswarm: no dynamic parameter ") + name);
 }
 
 // rotate v about the unit axis n by angle (radians), Rodrigues
@@ -474,29 +488,33 @@ double polarisation(const float* vx, const float* vy, const float* vz, std::size
 
 BswarmParams readBswarmParams(JsonReader& r, const ModelContext& context) {
   BswarmParams p;
-  (void)context;
   BswarmDynamic& d = p.dyn;
-  d.gamma = r.number("gamma", d.gamma, Range::nonNegative());
-  d.lambdaRep = r.number("lambda_rep", d.lambdaRep, Range::nonNegative());
-  d.lambdaAli = r.number("lambda_ali", d.lambdaAli, Range::nonNegative());
-  d.lambdaAtt = r.number("lambda_att", d.lambdaAtt, Range::nonNegative());
-  d.lambdaRes = r.number("lambda_res", d.lambdaRes, Range::nonNegative());
-  d.rRes = r.number("r_res", d.rRes, Range::nonNegative());
+  // the same ranges as in a schedule (dynamicFields)
+  d.gamma = r.number("gamma", d.gamma, rangeOf("gamma"));
+  d.lambdaRep = r.number("lambda_rep", d.lambdaRep, rangeOf("lambda_rep"));
+  d.lambdaAli = r.number("lambda_ali", d.lambdaAli, rangeOf("lambda_ali"));
+  d.lambdaAtt = r.number("lambda_att", d.lambdaAtt, rangeOf("lambda_att"));
+  d.lambdaRes = r.number("lambda_res", d.lambdaRes, rangeOf("lambda_res"));
+  d.rRes = r.number("r_res", d.rRes, rangeOf("r_res"));
   // radii: absolute (r_ali, r_att) or, as in the paper's Table 1, differences (dr_ali = r_ali - r_rep, dr_att = r_att -
   // r_ali)
-  d.rRep = r.number("r_rep", d.rRep, Range::positive());
+  d.rRep = r.number("r_rep", d.rRep, rangeOf("r_rep"));
   if (r.has("r_ali") && r.has("dr_ali")) r.fail("dr_ali", "give r_ali (absolute) or dr_ali (r_ali - r_rep), not both");
   if (r.has("r_att") && r.has("dr_att")) r.fail("dr_att", "give r_att (absolute) or dr_att (r_att - r_ali), not both");
   if (r.has("dr_ali")) {
-    d.rAli = d.rRep + r.requireNumber("dr_ali", Range::nonNegative());
+    d.rAli = d.rRep + r.requireNumber("dr_ali", Range::nonNegative().limited(0.0, kMaxZone));
+    if (!rangeOf("r_ali").contains(d.rAli))
+      r.fail("dr_ali", "expected r_rep + dr_ali to be " + rangeOf("r_ali").describe());
   } else {
-    d.rAli = r.number("r_ali", d.rRep, Range::positive());
+    d.rAli = r.number("r_ali", d.rRep, rangeOf("r_ali"));
     if (d.rAli < d.rRep) r.fail("r_ali", "expected r_ali >= r_rep (" + std::to_string(d.rRep) + ")");
   }
   if (r.has("dr_att")) {
-    d.rAtt = d.rAli + r.requireNumber("dr_att", Range::nonNegative());
+    d.rAtt = d.rAli + r.requireNumber("dr_att", Range::nonNegative().limited(0.0, kMaxZone));
+    if (!rangeOf("r_att").contains(d.rAtt))
+      r.fail("dr_att", "expected r_ali + dr_att to be " + rangeOf("r_att").describe());
   } else {
-    d.rAtt = r.number("r_att", std::max(d.rAtt, d.rAli), Range::positive());
+    d.rAtt = r.number("r_att", std::max(d.rAtt, d.rAli), rangeOf("r_att"));
     if (d.rAtt < d.rAli) r.fail("r_att", "expected r_att >= r_ali (" + std::to_string(d.rAli) + ")");
   }
   r.resolve("r_ali", d.rAli);
@@ -509,8 +527,9 @@ BswarmParams readBswarmParams(JsonReader& r, const ModelContext& context) {
               : type == "white"  ? BswarmNoise::kWhite
                                  : BswarmNoise::kGaussian;
     p.scale = nz.number("scale", p.scale, Range::positive());
-    p.noiseUnit = nz.number("unit", p.noiseUnit, Range::positive());
-    d.gain = nz.number("gain", d.gain, Range::nonNegative());
+    p.noiseUnit = nz.number("unit", p.noiseUnit, Range::length());
+    checkNoiseFrequency(nz, "scale", context.world.domain, p.scale, 1.0 / p.noiseUnit);
+    d.gain = nz.number("gain", d.gain, rangeOf("gain"));
     readSeeds(nz, "seeds", p.seeds);
     p.noiseCells = readCells(nz, "cells", false, 2, 1024);
     nz.finish();
@@ -519,9 +538,10 @@ BswarmParams readBswarmParams(JsonReader& r, const ModelContext& context) {
     StimulusSpec st;
     st.kind = readKind(s);
     st.path = readPath(s, "a stimulus");
-    st.radius = s.number("radius", 0.0, Range::nonNegative());
-    st.visualRange = s.has("visual_range") ? s.requireNumber("visual_range", Range::nonNegative()) : -1.0;
-    st.weight = s.number("weight", 1.0, Range::nonNegative());
+    st.radius = s.number("radius", 0.0, Range::nonNegative().limited(0.0, kMaxLength));
+    st.visualRange =
+        s.has("visual_range") ? s.requireNumber("visual_range", Range::nonNegative().limited(0.0, kMaxLength)) : -1.0;
+    st.weight = s.number("weight", 1.0, Range::nonNegative().limited(0.0, kMaxForce));
     st.solid = s.boolean("solid", st.kind == StimulusSpec::Kind::kPredator && st.radius > 0.0);
     if (st.solid && !(st.radius > 0.0)) s.fail("solid", "only a sphere stimulus (radius > 0) can be solid");
     s.finish();
@@ -531,10 +551,10 @@ BswarmParams readBswarmParams(JsonReader& r, const ModelContext& context) {
     JsonReader a = r.object("attached_stimulus", false);
     p.attached.enabled = true;
     p.attached.kind = readKind(a);
-    p.attached.distance = a.number("distance", 1.0, Range::positive());
+    p.attached.distance = a.number("distance", 1.0, Range::length());
     p.attached.angle = a.number("angle", 0.0, Range::closed(-180.0, 180.0));
     p.attached.axis = readAxis(a, "axis", Vec3d::UnitZ());
-    p.attached.weight = a.number("weight", 1.0, Range::nonNegative());
+    p.attached.weight = a.number("weight", 1.0, Range::nonNegative().limited(0.0, kMaxForce));
     a.finish();
   }
   {
@@ -547,12 +567,14 @@ BswarmParams readBswarmParams(JsonReader& r, const ModelContext& context) {
   }
   {
     JsonReader o = r.object("orca", false);
-    p.radius = o.number("radius", p.radius, Range::positive());
-    p.neighborDistance = o.number("neighbor_distance", std::max(p.neighborDistance, 4.0 * p.radius), Range::positive());
+    // float in ORCA: lengths, durations and speeds within the limits stay finite and > 0 there
+    p.radius = o.number("radius", p.radius, Range::length());
+    p.neighborDistance = o.number("neighbor_distance",
+                                  std::min(kMaxLength, std::max(p.neighborDistance, 4.0 * p.radius)), Range::length());
     p.maxNeighbors = static_cast<int>(o.integer("max_neighbors", p.maxNeighbors, 0, 256));
-    p.timeHorizon = o.number("time_horizon", p.timeHorizon, Range::positive());
-    p.timeHorizonObstacle = o.number("time_horizon_obstacle", p.timeHorizonObstacle, Range::positive());
-    p.maxSpeed = o.number("max_speed", p.maxSpeed, Range::positive());
+    p.timeHorizon = o.number("time_horizon", p.timeHorizon, Range::duration());
+    p.timeHorizonObstacle = o.number("time_horizon_obstacle", p.timeHorizonObstacle, Range::duration());
+    p.maxSpeed = o.number("max_speed", p.maxSpeed, Range::positiveSpeed());
     o.finish();
   }
   p.sdfCells = readCells(r, "sdf_cells", false, 2, 1024);

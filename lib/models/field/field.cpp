@@ -36,11 +36,12 @@ GoalSpec readGoal(JsonReader g) {
   readKeyframes(g, goal.keyTimes, goal.keyCenters);
   if (type == "sphere") {
     goal.kind = GoalSpec::Kind::kSphere;
-    goal.center = goal.keyCenters.empty() ? g.requireVec3("center") : g.vec3("center", goal.keyCenters.front());
-    goal.radius = g.requireNumber("radius", Range::positive());
+    goal.center = goal.keyCenters.empty() ? g.requireVec3("center", Range::coordinate())
+                                          : g.vec3("center", goal.keyCenters.front(), Range::coordinate());
+    goal.radius = g.requireNumber("radius", Range::length());
   } else {
     goal.kind = GoalSpec::Kind::kBox;
-    const Vec3d lo = g.requireVec3("min"), hi = g.requireVec3("max");
+    const Vec3d lo = g.requireVec3("min", Range::coordinate()), hi = g.requireVec3("max", Range::coordinate());
     for (int a = 0; a < 3; ++a) {
       if (!(hi[a] > lo[a])) g.fail("max", std::string("expected max > min on every axis (axis ") + "xyz"[a] + ")");
     }
@@ -485,7 +486,8 @@ bool GoalSpec::contains(const Vec3d& p, const Vec3d& c) const {
 FieldParams readFieldParams(JsonReader& r, const ModelContext& context) {
   FieldParams p;
   const Aabb& dom = context.world.domain;
-  p.speed = r.number("speed", p.speed, Range::positive());
+  // limits: docs/scenario.md#limits (speeds at most kMaxSpeed, lengths within [kMinLength, kMaxLength])
+  p.speed = r.number("speed", p.speed, Range::positiveSpeed());
   p.costCells = readCells(r, "cost_cells", true, 2, 1024);
   if (static_cast<double>(p.costCells[0]) * p.costCells[1] * p.costCells[2] > 64e6) {
     r.fail("cost_cells", "more than 64 million cells");
@@ -497,7 +499,8 @@ FieldParams readFieldParams(JsonReader& r, const ModelContext& context) {
     const std::string type = nz.choice("type", "curl", {"curl", "perlin", "white"});
     p.noise = type == "curl" ? NoiseKind::kCurl : type == "perlin" ? NoiseKind::kPerlin : NoiseKind::kWhite;
     p.scale = nz.number("scale", p.scale, Range::positive());
-    p.gain = nz.number("gain", p.gain, Range::nonNegative());
+    checkNoiseFrequency(nz, "scale", dom, p.scale, 1.0 / unit);
+    p.gain = nz.number("gain", p.gain, Range::speed());
     readSeeds(nz, "seeds", p.seeds);
     p.noiseCells = readCells(nz, "cells", false, 2, 1024);
     if (p.noiseCells[0] == 0) {
@@ -510,20 +513,20 @@ FieldParams readFieldParams(JsonReader& r, const ModelContext& context) {
     }
     nz.finish();
   }
-  p.rampDistance = r.number("ramp_distance", unit, Range::positive());
+  p.rampDistance = r.number("ramp_distance", unit, Range::positive().limited(0.0, kMaxLength));
   p.pathWeight = r.number("path_weight", p.pathWeight, Range::positive());
   p.repulsionWeight = r.number("repulsion_weight", p.repulsionWeight, Range::nonNegative());
   for (JsonReader& g : r.objectArray("goals", false, 0)) p.goals.push_back(readGoal(g));
-  p.minDistance = r.number("min_distance", p.minDistance, Range::nonNegative());
-  p.agentRadius = r.number("agent_radius", 0.5 * p.minDistance, Range::nonNegative());
+  p.minDistance = r.number("min_distance", p.minDistance, Range::lengthOrZero());
+  p.agentRadius = r.number("agent_radius", 0.5 * p.minDistance, Range::nonNegative().limited(0.0, kMaxLength));
   p.mdePairs = r.choice("mde_pairs", "same_cell", {"same_cell", "neighbours"}) == "same_cell" ? MdePairs::kSameCell
                                                                                               : MdePairs::kNeighbours;
   if (r.has("phototaxis")) {
     JsonReader ph = r.object("phototaxis", false);
     p.phototaxis = true;
-    p.light = ph.requireVec3("light");
+    p.light = ph.requireVec3("light", Range::coordinate());
     p.phototaxisProbability = ph.number("probability", 0.05, Range::closed(0.0, 1.0));
-    p.phototaxisSpeed = ph.number("speed", 1.0, Range::nonNegative());
+    p.phototaxisSpeed = ph.number("speed", 1.0, Range::speed());
     ph.finish();
   }
   return p;
