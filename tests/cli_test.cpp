@@ -314,3 +314,31 @@ TEST_CASE("CLI SIGINT stops a run with a valid file", "[cli]") {
   CHECK(info.at("swarms")[0].at("frames") == info.at("frames"));
   CHECK(info.at("swarms")[0].at("agents") == 2000);
 }
+
+TEST_CASE("CLI D7: --seed takes 0 to 2^64-1 exactly and refuses more", "[cli]") {
+  TempDir dir;
+  const std::string base = "run " + shellQuote(kTiny) + " --frames 2 --quiet ";
+  for (const char* big : {"18446744073709551616", "99999999999999999999999", "-1", "1e3", "12abc"}) {
+    const auto r = runCli(base + "-o a.h5 --seed " + shellQuote(big), dir);
+    INFO("seed " << big << ": " << r.err);
+    CHECK(r.exitCode == 2);
+    CHECK_THAT(r.err, Contains("--seed"));
+  }
+  CHECK_FALSE(fs::exists(dir.file("a.h5")));
+  // 2^63 and 2^64 - 1 are different seeds, stored exactly (they used to collide at 2^63 - 1)
+  REQUIRE(runCli(base + "-o b.h5 --seed 9223372036854775808", dir).exitCode == 0);
+  REQUIRE(runCli(base + "-o c.h5 --seed 18446744073709551615", dir).exitCode == 0);
+  CHECK(infoJson("b.h5", dir).at("seed").get<unsigned long long>() == 9223372036854775808ULL);
+  CHECK(infoJson("c.h5", dir).at("seed").get<unsigned long long>() == 18446744073709551615ULL);
+}
+
+TEST_CASE("CLI D11: command-line errors are one line with the swarmsim prefix, exit 2", "[cli]") {
+  TempDir dir;
+  for (const char* args : {"run", "run --bogus x.json", "bench --repeat 0", "run x.json --threads 0"}) {
+    const auto r = runCli(args, dir);
+    INFO(args << ": " << r.err);
+    CHECK(r.exitCode == 2);
+    CHECK(r.err.rfind("swarmsim: error: ", 0) == 0);
+    CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+  }
+}
