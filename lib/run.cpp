@@ -222,8 +222,16 @@ RunResult runScenario(const Scenario& scenario, const RunOptions& options) {
     if (hasPart && hasCkpt) {
       ckpt = readCheckpoint(target.checkpointPath());
       sameScenario(ckpt.scenario, target.checkpointPath());
-      // compressed output allocates as it writes: its frames are copied into a new file instead
-      start = TrajectoryWriter::canReopen(scenario) ? Start::kReopen : Start::kCopyPart;
+      // Written on in place, unless compressed (writing allocates space, so a killed run's file is not
+      // extended) or closed: a run that stopped but could not place its output has its datasets cut.
+      // Then its frames are copied into a new file.
+      bool closed = false;
+      try {
+        const TrajectoryInfo part = readTrajectoryInfo(target.partPath());
+        closed = part.complete || part.interrupted;
+      } catch (const Error&) {  // a killed run's file: the reopen checks it
+      }
+      start = TrajectoryWriter::canReopen(scenario) && !closed ? Start::kReopen : Start::kCopyPart;
     } else if (target.finalExists()) {
       TrajectoryInfo info;
       try {
@@ -317,7 +325,6 @@ RunResult runScenario(const Scenario& scenario, const RunOptions& options) {
       if (copy) {
         writer->copyFramesFrom(copySource, ckpt.frames);
         if (writer->dataHash() != ckpt.dataHash) {
-          ::unlink(copyTarget.c_str());
           throw InputError(copySource + ": its frames do not match the checkpoint (damaged or changed?): cannot "
                            "resume; start again with --force");
         }

@@ -28,6 +28,10 @@ class StateOut {
     const auto* p = reinterpret_cast<const unsigned char*>(v.data());
     bytes_.insert(bytes_.end(), p, p + v.size() * sizeof(T));
   }
+  void putString(const std::string& s) {
+    put<std::uint64_t>(s.size());
+    bytes_ += s;
+  }
   const std::string& bytes() const { return bytes_; }
 
  private:
@@ -51,6 +55,13 @@ class StateIn {
     std::vector<T> v(static_cast<std::size_t>(n));
     take(v.data(), v.size() * sizeof(T));
     return v;
+  }
+  std::string getString() {
+    const auto n = get<std::uint64_t>();
+    if (n > bytes_.size() - pos_) throw std::runtime_error("checkpoint state: string longer than the data");
+    std::string s = bytes_.substr(pos_, static_cast<std::size_t>(n));
+    pos_ += s.size();
+    return s;
   }
   bool atEnd() const { return pos_ == bytes_.size(); }
 

@@ -82,7 +82,7 @@ namespace {
 
 struct Governor {
   bool init = false, adapt = false;
-  int max = 1, current = 1, changes = 0, cpus = 1;
+  int max = 1, current = 1, cpus = 1;
   double lastWall = 0.0, lastBusy = 0.0, lastOwn = 0.0, others = 0.0;
   unsigned long long mask[16] = {};  // up to 1,024 CPUs
 
@@ -135,9 +135,7 @@ struct Governor {
   }
 
   void apply() {
-    const int want = wanted();
-    if (want != current) ++changes;
-    current = want;
+    current = wanted();
     setThreadCount(current);
   }
 };
@@ -153,8 +151,7 @@ Governor& governor() {
 void requestThreads(int n) {
   Governor& g = governor();
   g.max = std::max(1, n);
-  g.current = g.wanted();
-  setThreadCount(g.current);
+  g.apply();
 }
 
 void threadTick() {
@@ -174,6 +171,5 @@ void threadTick() {
 }
 
 int threadsInUse() { return governor().current; }
-int threadChanges() { return governor().changes; }
 
 }  // namespace swarmsim

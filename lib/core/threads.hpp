@@ -26,8 +26,7 @@ bool threadAdaptation();
 // cheap (a clock read), and every ~0.5 s a look at the machine.
 void requestThreads(int n);
 void threadTick();
-// threads in use now, and how often the governor changed them
+// threads in use now
 int threadsInUse();
-int threadChanges();
 
 }  // namespace swarmsim

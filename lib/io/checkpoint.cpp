@@ -29,16 +29,6 @@ inline std::uint64_t mix(std::uint64_t x) {
   return x;
 }
 
-void putString(StateOut& out, const std::string& s) {
-  out.put<std::uint64_t>(s.size());
-  for (char c : s) out.put(c);
-}
-
-std::string getString(StateIn& in) {
-  const auto v = in.getVector<char>();
-  return std::string(v.begin(), v.end());
-}
-
 void writeAll(int fd, const char* data, std::size_t size, const std::string& path) {
   while (size > 0) {
     const ssize_t w = ::write(fd, data, size);
@@ -74,18 +64,18 @@ void writeCheckpoint(const std::string& path, const Checkpoint& c) {
   StateOut out;
   for (char ch : kMagic) out.put(ch);
   out.put(kVersion);
-  putString(out, c.scenario);
+  out.putString(c.scenario);
   out.put(c.step);
   out.put(c.frames);
   out.put(c.dataHash);
   out.put<std::uint32_t>(static_cast<std::uint32_t>(c.swarms.size()));
   for (const SwarmState& s : c.swarms) {
-    putString(out, s.name);
+    out.putString(s.name);
     for (const auto* a : {&s.px, &s.py, &s.pz, &s.vx, &s.vy, &s.vz}) out.putVector(*a);
     out.putVector(s.id);
   }
   out.put<std::uint32_t>(static_cast<std::uint32_t>(c.modelStates.size()));
-  for (const auto& m : c.modelStates) putString(out, m);
+  for (const auto& m : c.modelStates) out.putString(m);
   const std::string& body = out.bytes();
   const std::uint64_t sum = hashBytes(body.data(), body.size(), 0);
 
@@ -139,14 +129,14 @@ Checkpoint readCheckpoint(const std::string& path) {
     for (std::size_t i = 0; i < sizeof kMagic; ++i) in.get<char>();
     const auto version = in.get<std::uint32_t>();
     if (version != kVersion) throw bad("format version " + std::to_string(version) + ", expected " + std::to_string(kVersion));
-    c.scenario = getString(in);
+    c.scenario = in.getString();
     c.step = in.get<std::uint64_t>();
     c.frames = in.get<std::int64_t>();
     c.dataHash = in.get<std::uint64_t>();
     const auto swarms = in.get<std::uint32_t>();
     for (std::uint32_t k = 0; k < swarms; ++k) {
       SwarmState s;
-      s.name = getString(in);
+      s.name = in.getString();
       for (auto* a : {&s.px, &s.py, &s.pz, &s.vx, &s.vy, &s.vz}) *a = in.getVector<float>();
       s.id = in.getVector<std::uint32_t>();
       const std::size_t n = s.px.size();
@@ -157,7 +147,7 @@ Checkpoint readCheckpoint(const std::string& path) {
       c.swarms.push_back(std::move(s));
     }
     const auto models = in.get<std::uint32_t>();
-    for (std::uint32_t k = 0; k < models; ++k) c.modelStates.push_back(getString(in));
+    for (std::uint32_t k = 0; k < models; ++k) c.modelStates.push_back(in.getString());
     if (!in.atEnd()) throw bad("trailing data");
   } catch (const std::runtime_error& e) {
     if (dynamic_cast<const InputError*>(&e)) throw;

@@ -12,8 +12,7 @@
 #include <system_error>
 
 #include "core/error.hpp"
-#include "io/hdf5_handle.hpp"
-#include "io/hdf5_util.hpp"
+#include "io/trajectory_reader.hpp"
 
 namespace swarmsim {
 
@@ -55,12 +54,9 @@ bool isOwnOutputFile(const std::string& path) {
   struct stat st {};
   if (stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return false;
   if (st.st_size == 0) return true;
-  h5::quietErrors();
-  if (H5Fis_hdf5(path.c_str()) <= 0) return false;
-  H5Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
-  if (!file.valid() || !h5::hasAttr(file, "format")) return false;
   try {
-    return h5::readStringAttr(file, "format") == "swarmsim-trajectory";
+    readTrajectoryInfo(path);  // throws unless it is a readable swarmsim trajectory
+    return true;
   } catch (const std::exception&) {
     return false;
   }
