@@ -126,7 +126,7 @@ int main(int argc, char** argv) {
   bench->add_option("scenarios", benchFiles, "Scenario JSON files");
   bench->add_option("--agents", benchAgents, "Agent counts N[,N...]; the spawn region and domain are rescaled to keep the density")
       ->type_name("N[,N...]");
-  bench->add_option("--frames", benchFrames, "Frames to time per repetition (default: min(scenario frames, 10))")
+  bench->add_option("--frames", benchFrames, "Frames to time per repetition (default: min(scenario frames, 10), more if that is under 0.1 s)")
       ->check(CLI::Range(1LL, 100000000LL));
   bench->add_option("--threads", benchThreads, "Thread counts T[,T...] (default: the CPUs this process may use)")
       ->type_name("T[,T...]");

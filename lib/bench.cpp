@@ -300,13 +300,22 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
       for (const int threads : threadList) {
         requestThreads(threads);
         const std::int64_t frames = options.frames > 0 ? options.frames : std::min<std::int64_t>(sc.frames, 10);
-        const std::int64_t steps = std::max<std::int64_t>(1, frames * sc.stepsPerFrame);
+        std::int64_t steps = std::max<std::int64_t>(1, frames * sc.stepsPerFrame);
         std::vector<double> pre, rate;
         Json info = Json::array();
         for (int r = 0; r < std::max(1, options.repeat); ++r) {
           Simulation sim(sc);
           pre.push_back(sim.preprocessSeconds());
           sim.step();  // warm-up: sizes scratch buffers
+          if (options.frames == 0 && r == 0) {
+            // by default at least 0.1 s is timed: steps of a few agents are below the clock's resolution
+            const auto w0 = Clock::now();
+            sim.step();
+            const double one = std::chrono::duration<double>(Clock::now() - w0).count();
+            if (one * static_cast<double>(steps) < 0.1) {
+              steps = std::min<std::int64_t>(1000000, static_cast<std::int64_t>(std::ceil(0.1 / std::max(one, 1e-9))));
+            }
+          }
           const auto t0 = Clock::now();
           for (std::int64_t k = 0; k < steps; ++k) sim.step();
           const double s = std::chrono::duration<double>(Clock::now() - t0).count();

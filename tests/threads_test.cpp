@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <thread>
+#include <vector>
 
 #include <catch2/catch.hpp>
 
@@ -88,11 +89,15 @@ TEST_CASE("The thread governor yields a CPU another process holds", "[threads]")
   }
   swarmsim::setThreadAdaptation(true);
   swarmsim::requestThreads(2);
-  // work between ticks, as steps would be
+  // steps of many short parallel loops (as the field model's at a few thousand insects): a thread that
+  // shares its CPU with the hog holds every barrier up, so one thread steps faster, and the governor,
+  // measuring both teams, must settle on it (machine seen busy after 0.5 s, then 0.25 s per team)
+  std::vector<float> data(4096, 1.0f);
   const auto t0 = std::chrono::steady_clock::now();
-  while (std::chrono::steady_clock::now() - t0 < std::chrono::milliseconds(1600)) {
-    volatile double s = 0.0;
-    for (int i = 0; i < 200000; ++i) s = s + i * 1e-9;
+  while (std::chrono::steady_clock::now() - t0 < std::chrono::milliseconds(2500)) {
+    for (int loop = 0; loop < 50; ++loop) {
+      swarmsim::parallelFor(data.size(), [&](std::size_t i) { data[i] = data[i] * 0.999f + 0.001f; });
+    }
     swarmsim::threadTick();
   }
   const int busy = swarmsim::threadsInUse();

@@ -84,6 +84,17 @@ struct Governor {
   bool init = false, adapt = false;
   int max = 1, current = 1, cpus = 1;
   double lastWall = 0.0, lastBusy = 0.0, lastOwn = 0.0, others = 0.0;
+  // threadTick reads the clock only every `stride` calls, so a step of a few
+  // agents (~100 ns) does not pay for it; the stride adapts to ~1-20 ms a look
+  double lastLook = 0.0;
+  long calls = 0, stride = 1;
+  long long ticks = 0;  // steps so far
+  // on a busy machine: which of two team sizes steps faster, measured
+  enum class Phase { kSettled, kProbeFull, kProbeFree };
+  Phase phase = Phase::kSettled;
+  int alternative = 1;  // the team that fits the CPUs others leave free
+  double phaseStart = 0.0, fullRate = 0.0, holdUntil = 0.0;
+  long long phaseTicks = 0;
   unsigned long long mask[16] = {};  // up to 1,024 CPUs
 
   void setup() {
@@ -116,10 +127,12 @@ struct Governor {
       if (line.rfind("cpu", 0) != 0 || line.size() < 4 || line[3] < '0' || line[3] > '9') continue;
       std::istringstream in(line.substr(3));
       int cpu = -1;
-      unsigned long long user = 0, nice = 0, system = 0, idle = 0, iowait = 0, irq = 0, softirq = 0, steal = 0;
-      in >> cpu >> user >> nice >> system >> idle >> iowait >> irq >> softirq >> steal;
+      unsigned long long user = 0, nice = 0, system = 0, idle = 0, iowait = 0, irq = 0, softirq = 0;
+      in >> cpu >> user >> nice >> system >> idle >> iowait >> irq >> softirq;
       if (cpu < 0 || cpu >= 1024 || !(mask[cpu / 64] >> (cpu % 64) & 1ULL)) continue;
-      busy += static_cast<double>(user + nice + system + irq + softirq + steal) / tick;
+      // steal (time the hypervisor gave to other machines) is not counted: it is
+      // not a process here that our threads would compete with
+      busy += static_cast<double>(user + nice + system + irq + softirq) / tick;
       any = true;
     }
     timespec ts{};
@@ -128,15 +141,59 @@ struct Governor {
     return any;
   }
 
-  int wanted() const {
-    if (!adapt || !gAdapt) return max;
-    const int free = static_cast<int>(std::floor(static_cast<double>(cpus) - others + 0.5));
-    return std::clamp(free, 1, max);
+  // the team that fits the CPUs other processes leave free. A CPU counts as
+  // taken from 0.45 CPUs of others' time on: a process that wants a whole CPU
+  // gets only half of one it shares with one of our threads.
+  int freeTeam() const {
+    const int taken = static_cast<int>(std::floor(others + 0.55));
+    return std::clamp(cpus - taken, 1, max);
   }
 
-  void apply() {
-    current = wanted();
-    setThreadCount(current);
+  void use(int n) {
+    current = n;
+    setThreadCount(n);
+  }
+
+  // Idle machine: the full team. Busy: whichever of the full team and the
+  // free-CPU team steps faster, measured over 0.25 s each (a team that shares
+  // CPUs with other work gets more CPU time but waits at every barrier; which
+  // wins depends on the work per parallel loop), kept for 5 s, then measured
+  // again.
+  void decide(double now) {
+    if (!adapt || !gAdapt) return use(max);
+    alternative = freeTeam();
+    if (alternative >= max) {
+      phase = Phase::kSettled;
+      holdUntil = 0.0;
+      if (current != max) use(max);
+      return;
+    }
+    const double elapsed = now - phaseStart;
+    const long long steps = ticks - phaseTicks;
+    const bool measured = elapsed >= 0.25 && steps >= 2;
+    switch (phase) {
+      case Phase::kSettled:
+        if (now < holdUntil) return;
+        phase = Phase::kProbeFull;
+        use(max);
+        break;
+      case Phase::kProbeFull:
+        if (!measured) return;
+        fullRate = static_cast<double>(steps) / elapsed;
+        phase = Phase::kProbeFree;
+        use(alternative);
+        break;
+      case Phase::kProbeFree: {
+        if (!measured) return;
+        const double freeRate = static_cast<double>(steps) / elapsed;
+        use(freeRate > 1.03 * fullRate ? alternative : max);
+        phase = Phase::kSettled;
+        holdUntil = now + 5.0;
+        return;
+      }
+    }
+    phaseStart = now;
+    phaseTicks = ticks;
   }
 };
 
@@ -151,23 +208,34 @@ Governor& governor() {
 void requestThreads(int n) {
   Governor& g = governor();
   g.max = std::max(1, n);
-  g.apply();
+  g.phase = Governor::Phase::kSettled;
+  g.holdUntil = 0.0;
+  g.use(g.max);  // measured again if the machine is busy
 }
 
 void threadTick() {
   Governor& g = governor();
   if (!g.adapt || !gAdapt || g.max <= 1) return;
+  ++g.ticks;
+  if (++g.calls < g.stride) return;
+  g.calls = 0;
   const double now = wallNow();
+  const double sinceLook = now - g.lastLook;
+  g.lastLook = now;
+  if (sinceLook < 0.001) g.stride = std::min(g.stride * 2, 1L << 20);
+  if (sinceLook > 0.02) g.stride = std::max(g.stride / 2, 1L);
   const double wall = now - g.lastWall;
-  if (wall < 0.5) return;
-  double busy = 0.0, own = 0.0;
-  if (!g.sample(busy, own)) return;
-  // CPUs that other processes kept busy over the interval
-  g.others = std::max(0.0, ((busy - g.lastBusy) - (own - g.lastOwn)) / wall);
-  g.lastWall = now;
-  g.lastBusy = busy;
-  g.lastOwn = own;
-  g.apply();
+  if (wall >= 0.5) {
+    double busy = 0.0, own = 0.0;
+    if (g.sample(busy, own)) {
+      // CPUs that other processes kept busy over the interval
+      g.others = std::max(0.0, ((busy - g.lastBusy) - (own - g.lastOwn)) / wall);
+      g.lastWall = now;
+      g.lastBusy = busy;
+      g.lastOwn = own;
+    }
+  }
+  g.decide(now);
 }
 
 int threadsInUse() { return governor().current; }

@@ -4,11 +4,12 @@
 //     a batch scheduler's core binding) and its cgroup CPU quota (containers,
 //     systemd, Slurm), whichever is smaller; OMP_NUM_THREADS, when set, wins.
 //   - The thread governor adapts the team to a busy machine: every half second it
-//     compares the busy time of those CPUs (/proc/stat) with this process's own
-//     CPU time, and when other processes hold some of the CPUs it uses only the
-//     CPUs left free (at least one thread, at most the requested number), going
-//     back up when they are free again. Results do not depend on the number of
-//     threads, so this changes only the speed.
+//     compares the busy time of those CPUs (/proc/stat, without steal) with this
+//     process's own CPU time. On an idle machine it uses the requested team.
+//     When other processes hold some of the CPUs it measures the steps per
+//     second of the full team and of a team that fits the CPUs left free (0.25 s
+//     each), keeps the faster for 5 s, then measures again. Results do not
+//     depend on the number of threads, so this changes only the speed.
 namespace swarmsim {
 
 // CPUs this process may use: affinity, then the cgroup quota (at least 1)
