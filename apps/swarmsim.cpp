@@ -53,9 +53,8 @@ std::string checkedSeed(const std::string& text) {
   return std::to_string(v);
 }
 
-std::vector<std::string> overridesFrom(const std::vector<std::string>& sets, long long frames, const std::string& seed) {
+std::vector<std::string> overridesFrom(const std::vector<std::string>& sets, const std::string& seed) {
   std::vector<std::string> o = sets;
-  if (frames >= 0) o.push_back("frames=" + std::to_string(frames));
   if (!seed.empty()) o.push_back("seed=" + checkedSeed(seed));
   return o;
 }
@@ -174,7 +173,13 @@ int main(int argc, char** argv) {
       }
       setThreadAdaptation(!fixedThreads);
       requestThreads(threads > 0 ? threads : defaultThreadCount());
-      const Scenario sc = loadScenario(scenarioFile, overridesFrom(sets, frames, seed));
+      Scenario sc = loadScenario(scenarioFile, overridesFrom(sets, seed));
+      // --frames runs the scenario for a different number of frames: the scenario itself (keyframe times
+      // and what else it checks against its own length) is parsed as written
+      if (frames >= 0) {
+        sc.frames = frames;
+        sc.resolved["frames"] = frames;
+      }
       for (const auto& w : sc.warnings) std::fprintf(stderr, "swarmsim: warning: %s\n", w.c_str());
       RunOptions opt;
       opt.output = outPath;

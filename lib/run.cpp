@@ -295,7 +295,12 @@ RunResult runScenario(const Scenario& scenario, const RunOptions& options) {
 
   Simulation sim(scenario);
   std::vector<std::vector<std::string>> statNames;
-  for (std::size_t i = 0; i < scenario.swarms.size(); ++i) statNames.push_back(sim.model(i).statNames());
+  std::vector<std::string> facts;
+  for (std::size_t i = 0; i < scenario.swarms.size(); ++i) {
+    statNames.push_back(sim.model(i).statNames());
+    const Json f = sim.model(i).facts();
+    facts.push_back(f.empty() ? std::string() : f.dump());
+  }
   std::optional<TrajectoryWriter> writer;
   // after a failure, the partial output is kept only if a checkpoint can continue it
   bool keepOnError = start != Start::kFresh;
@@ -321,7 +326,7 @@ RunResult runScenario(const Scenario& scenario, const RunOptions& options) {
     } else {
       const bool copy = start == Start::kCopy || start == Start::kCopyPart;
       writer.emplace(copy ? copyTarget : target.partPath(), recorded, sim.swarms(), statNames,
-                     TrajectoryWriter::Mode::kCreate);
+                     TrajectoryWriter::Mode::kCreate, 0, facts);
       if (copy) {
         writer->copyFramesFrom(copySource, ckpt.frames);
         if (writer->dataHash() != ckpt.dataHash) {

@@ -18,6 +18,7 @@ enum class RngPurpose : std::uint32_t {
   kNoise = 4,
   kPhototaxis = 5,
   kEscape = 6,
+  kSurfaceSample = 7,  // shape model: stratified samples of a target mesh
 };
 
 namespace detail {

@@ -11,6 +11,7 @@
 #include "core/error.hpp"
 #include "geometry/mesh.hpp"
 #include "geometry/obstacles.hpp"
+#include "models/params_util.hpp"
 
 namespace swarmsim {
 
@@ -65,27 +66,9 @@ std::shared_ptr<const Obstacles> readObstacles(JsonReader& r, const std::string&
     const std::string type = o.choice("type", "", {"mesh", "sphere", "box"});
     if (type.empty()) o.failMissing("type", "one of \"mesh\", \"sphere\", \"box\"");
     if (type == "mesh") {
-      const std::string rel = o.requireString("file");
-      const fs::path path = fs::path(rel).is_relative() ? fs::path(file).parent_path() / rel : fs::path(rel);
-      MeshTransform t;
-      t.translate = o.vec3("translate", Vec3d::Zero(), Range::coordinate());
-      t.rotateDeg = o.vec3("rotate", Vec3d::Zero());
-      const Json* scale = o.raw("scale");
-      if (scale && scale->is_number()) {
-        const double k = scale->get<double>();
-        if (!(k > 0.0) || !std::isfinite(k)) o.failExpected("scale", "a number > 0 or an array of 3 numbers > 0", *scale);
-        t.scale = Vec3d::Constant(k);
-      } else if (scale) {
-        t.scale = o.vec3("scale", Vec3d::Ones(), Range::positive());
-      }
-      TriangleMesh mesh;
-      try {
-        mesh = loadObj(path.lexically_normal().string(), t, kMaxCoordinate);
-      } catch (const InputError& e) {  // say which scenario entry referenced it
-        throw InputError(file + ": " + o.pathOf("file") + ": " + e.what());
-      }
+      TriangleMesh mesh = readPlacedMesh(o, file);
       if (!isWatertight(mesh)) {
-        warnings.push_back(path.lexically_normal().string() +
+        warnings.push_back(mesh.source +
                            ": mesh is not watertight; inside and outside are decided by majority voting (docs/models/field.md)");
       }
       obs->meshes.push_back(std::move(mesh));
@@ -281,7 +264,8 @@ Scenario parseScenario(const Json& json, const std::string& file) {
       s.failExpected("model", "one of " + known, spec.model);
     }
     JsonReader params = s.object("params", false);
-    spec.config = entry->parse(params, ModelContext{world});
+    const double seconds = sc.dt * static_cast<double>(sc.stepsPerFrame) * static_cast<double>(sc.frames - 1);
+    spec.config = entry->parse(params, ModelContext{world, file, spec.count, seconds, sc.warnings});
     params.finish();
     s.finish();
     sc.swarms.push_back(std::move(spec));

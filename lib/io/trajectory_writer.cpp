@@ -76,7 +76,7 @@ H5Handle accessProps() {
 TrajectoryWriter::TrajectoryWriter(const std::string& file, const Scenario& scenario,
                                    const std::vector<SwarmState>& swarms,
                                    const std::vector<std::vector<std::string>>& statNames, Mode mode,
-                                   std::int64_t framesKept)
+                                   std::int64_t framesKept, const std::vector<std::string>& facts)
     : file_(file), scenarioJson_(scenario.resolved.dump()), capacity_(scenario.frames) {
   h5::quietErrors();
   // the slots, in hashing order
@@ -109,7 +109,7 @@ TrajectoryWriter::TrajectoryWriter(const std::string& file, const Scenario& scen
   for (std::size_t k = 0; k < slots_.size(); ++k) slotData_[k].resize(slots_[k].bytes());
 
   try {
-    if (mode == Mode::kCreate) create(scenario, swarms, statNames);
+    if (mode == Mode::kCreate) create(scenario, swarms, statNames, facts);
     open(mode == Mode::kReopen);
   } catch (...) {
     closeFile();
@@ -131,7 +131,8 @@ TrajectoryWriter::TrajectoryWriter(const std::string& file, const Scenario& scen
 }
 
 void TrajectoryWriter::create(const Scenario& scenario, const std::vector<SwarmState>& swarms,
-                              const std::vector<std::vector<std::string>>& statNames) {
+                              const std::vector<std::vector<std::string>>& statNames,
+                              const std::vector<std::string>& facts) {
   const H5Handle fapl = accessProps();
   H5Handle f(H5Fcreate(file_.c_str(), H5F_ACC_EXCL, H5P_DEFAULT, fapl), H5Fclose);
   if (!f.valid()) throw OutputError(file_ + ": cannot create output file: " + errnoText());
@@ -162,6 +163,7 @@ void TrajectoryWriter::create(const Scenario& scenario, const std::vector<SwarmS
     h5::writeAttr(g, "model", spec.model);
     h5::writeAttr(g, "count", static_cast<std::int64_t>(n));
     h5::writeAttr(g, "params", scenario.resolved["swarms"][i]["params"].dump());
+    if (i < facts.size() && !facts[i].empty()) h5::writeAttr(g, "model_facts", facts[i]);
     const hsize_t dims[3] = {0, n, 3};
     const hsize_t chunk[3] = {1, std::min(std::max<hsize_t>(1, n), kChunkAgents), 3};
     if (swarmHasPos_[i]) {

@@ -33,11 +33,13 @@ class TrajectoryWriter {
     kCreate,  // a new file (it must not exist)
     kReopen,  // a partial file made by kCreate for the same scenario: frames [0, framesKept) are kept
   };
-  // statNames[i]: the per-frame statistics of swarm i (Model::statNames).
+  // statNames[i]: the per-frame statistics of swarm i (Model::statNames);
+  // facts[i]: its model's facts (Model::facts, JSON text; empty: none).
   // Throws OutputError when the file cannot be created or written, InputError
   // when a file to reopen is not the partial output of this scenario.
   TrajectoryWriter(const std::string& file, const Scenario& scenario, const std::vector<SwarmState>& swarms,
-                   const std::vector<std::vector<std::string>>& statNames, Mode mode, std::int64_t framesKept = 0);
+                   const std::vector<std::vector<std::string>>& statNames, Mode mode, std::int64_t framesKept = 0,
+                   const std::vector<std::string>& facts = {});
   TrajectoryWriter(const TrajectoryWriter&) = delete;
   TrajectoryWriter& operator=(const TrajectoryWriter&) = delete;
   ~TrajectoryWriter();  // closes the file if close() was not called (no exception)
@@ -76,7 +78,7 @@ class TrajectoryWriter {
     std::size_t bytes() const { return vec ? rows * 3 * sizeof(float) : sizeof(double); }
   };
   void create(const Scenario& scenario, const std::vector<SwarmState>& swarms,
-              const std::vector<std::vector<std::string>>& statNames);
+              const std::vector<std::vector<std::string>>& statNames, const std::vector<std::string>& facts);
   void open(bool checkScenario);  // opens the file and every slot's dataset; sets extent_
   void closeFile();               // closes every handle (no exception)
   void grow();                    // the next block of frames, then close and open again

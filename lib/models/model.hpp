@@ -30,6 +30,10 @@ class Model {
   virtual void takeFrameStats(std::vector<double>& values) { values.clear(); }
   // facts for `swarmsim bench` (grid sizes, preprocessing split...), a JSON object
   virtual Json benchInfo() const { return Json::object(); }
+  // facts about the built model worth keeping with its output (e.g. how a
+  // target mesh was scaled), a JSON object stored as the swarm's `model_facts`
+  // attribute (docs/output.md); empty: none
+  virtual Json facts() const { return Json::object(); }
 
   // Checkpoints (`swarmsim run --resume`, docs/architecture.md#checkpoints): a
   // model that carries anything from one step to the next besides the
@@ -52,6 +56,10 @@ class ModelConfig {
 // what a model's parser may know about the scenario (for defaults)
 struct ModelContext {
   const World& world;
+  const std::string& scenarioFile;     // relative file names in `params` resolve against its folder
+  std::int64_t count;                  // agents of the swarm
+  double seconds;                      // simulated time of the last frame (frames - 1 of them after frame 0)
+  std::vector<std::string>& warnings;  // non-fatal findings, reported by run and validate
 };
 
 // one registered model: its scenario name and parser

@@ -1,9 +1,34 @@
 #include "models/params_util.hpp"
 
 #include <cmath>
+#include <filesystem>
 #include <sstream>
 
+#include "core/error.hpp"
+
 namespace swarmsim {
+
+TriangleMesh readPlacedMesh(JsonReader& o, const std::string& scenarioFile) {
+  const std::string rel = o.requireString("file");
+  namespace fs = std::filesystem;
+  const fs::path path = fs::path(rel).is_relative() ? fs::path(scenarioFile).parent_path() / rel : fs::path(rel);
+  MeshTransform t;
+  t.translate = o.vec3("translate", Vec3d::Zero(), Range::coordinate());
+  t.rotateDeg = o.vec3("rotate", Vec3d::Zero());
+  const Json* scale = o.raw("scale");
+  if (scale && scale->is_number()) {
+    const double k = scale->get<double>();
+    if (!(k > 0.0) || !std::isfinite(k)) o.failExpected("scale", "a number > 0 or an array of 3 numbers > 0", *scale);
+    t.scale = Vec3d::Constant(k);
+  } else if (scale) {
+    t.scale = o.vec3("scale", Vec3d::Ones(), Range::positive());
+  }
+  try {
+    return loadObj(path.lexically_normal().string(), t, kMaxCoordinate);
+  } catch (const InputError& e) {  // say which scenario entry referenced it
+    throw InputError(scenarioFile + ": " + o.pathOf("file") + ": " + e.what());
+  }
+}
 
 std::array<int, 3> readCells(JsonReader& r, const std::string& key, bool required, int lo, int hi) {
   const std::string expected = "an array of 3 integers in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";

@@ -8,8 +8,14 @@
 
 #include "core/json_reader.hpp"
 #include "core/world.hpp"
+#include "geometry/mesh.hpp"
 
 namespace swarmsim {
+
+// a mesh entry: "file" (relative to the folder of `scenarioFile`) placed by
+// "translate", "rotate" (degrees) and "scale" (a number or three), as for obstacles;
+// errors name the scenario file, the entry's JSON path and the OBJ line
+TriangleMesh readPlacedMesh(JsonReader& o, const std::string& scenarioFile);
 
 // three integers in [lo, hi] (grid cells per axis); absent: an error if required, else {0, 0, 0}
 std::array<int, 3> readCells(JsonReader& r, const std::string& key, bool required, int lo, int hi);

@@ -3,6 +3,7 @@
 #include "models/bswarm/bswarm.hpp"
 #include "models/field/field.hpp"
 #include "models/model.hpp"
+#include "models/shape/shape.hpp"
 
 namespace swarmsim {
 
@@ -11,6 +12,7 @@ const std::vector<ModelEntry>& modelRegistry() {
       {"boids", "three-zone boids (repulsion, alignment, attraction), blog2018", &parseBoids},
       {"field", "curl noise + fast-marching cost field with MDE, wang2014", &parseField},
       {"bswarm", "zonal forces + friction + stimuli + curl noise, ORCA collision avoidance, wang2015", &parseBswarm},
+      {"shape", "insects forming keyframed target meshes along a B-spline path, chen2019", &parseShape},
   };
   return entries;
 }

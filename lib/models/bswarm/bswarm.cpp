@@ -10,6 +10,7 @@
 #include "core/parallel.hpp"
 #include "core/rng.hpp"
 #include "fields/curl_noise.hpp"
+#include "fields/noise_field.hpp"
 #include "fields/grid3.hpp"
 #include "geometry/obstacles.hpp"
 #include "geometry/signed_distance.hpp"
@@ -125,31 +126,8 @@ class BswarmModel final : public Model {
       np.seeds = p_.seeds;
       np.unit = p_.noiseUnit;  // scale: lattice cells per noise unit
       np.d0 = 0.5 * p_.noiseUnit / p_.scale;
-      // a grid with 3 samples per lattice cell when it fits (at most 256 per axis and 8 million
-      // cells); otherwise (fine noise in a large domain) the noise is evaluated at each insect
-      const double edge = p_.noiseUnit / (3.0 * p_.scale);
-      double cells = 1.0;
-      bool fits = true;
-      for (int a = 0; a < 3; ++a) {
-        const double na = std::ceil(domain_.extent()[a] / edge);
-        fits = fits && na <= 256.0;
-        cells *= na;
-      }
-      direct_ = p_.noiseCells[0] == 0 && !(fits && cells <= 8e6);
-      if (direct_) {
-        potential_ = std::make_unique<NoisePotential>(np);
-        step_ = 0.1 * edge;  // central differences of the potential for the curl
-      } else {
-        noiseSpec_ = GridSpec::covering(domain_.min, domain_.max,
-                                        p_.noiseCells[0] > 0 ? p_.noiseCells : cellsForEdge(domain_, edge, 8e6));
-        if (p_.noise == BswarmNoise::kCurl) {
-          Grid3<float> boundary = signedDistance(obs, noiseSpec_);
-          addBoxWalls(boundary, domain_);
-          noise_ = curl(noisePotential(noiseSpec_, np, &boundary));
-        } else {
-          noise_ = perlinVelocity(noiseSpec_, np);
-        }
-      }
+      noise_ = NoiseField(p_.noise == BswarmNoise::kCurl ? NoiseFieldKind::kCurl : NoiseFieldKind::kPerlin, np,
+                          domain_, obs, p_.noiseCells, &sdf_);
     }
     tNoise_ = since(t1);
 
@@ -184,8 +162,8 @@ class BswarmModel final : public Model {
     // timings per agent-step, after the first step (which sizes every buffer)
     const double steps = static_cast<double>(std::max<std::size_t>(1, timedAgentSteps_));
     return {{"noise", noise},
-            {"noise_grid", direct_                                                              ? "direct"
-                           : p_.noise == BswarmNoise::kCurl || p_.noise == BswarmNoise::kPerlin ? dimsText(noiseSpec_.n)
+            {"noise_grid", noise_.direct()                                                      ? "direct"
+                           : p_.noise == BswarmNoise::kCurl || p_.noise == BswarmNoise::kPerlin ? dimsText(noise_.spec().n)
                                                                                                 : "-"},
             {"sdf_grid", dimsText(sdfSpec_.n)},
             {"t_distance", tDistance_},
@@ -305,7 +283,7 @@ class BswarmModel final : public Model {
       switch (p_.noise) {
         case BswarmNoise::kCurl:
         case BswarmNoise::kPerlin:
-          a += (direct_ ? noiseAt(x) : noise_.sample(x)) * gain;
+          a += noise_(x) * gain;
           break;
         case BswarmNoise::kWhite: {
           AgentRng rng(world.seed, info.step, ids_[k], RngPurpose::kNoise, info.swarmIndex);
@@ -360,20 +338,6 @@ class BswarmModel final : public Model {
   }
 
  private:
-  // the noise at x without a grid: Perlin directly, or the curl of the blended
-  // potential by central differences (the blend uses the ORCA distance grid)
-  Vec3 noiseAt(const Vec3& x) const {
-    const Vec3d p = x.cast<double>();
-    if (p_.noise == BswarmNoise::kPerlin) return potential_->noise(p).cast<float>();
-    Vec3d d[3];  // d[a] = ∂N/∂x_a
-    for (int a = 0; a < 3; ++a) {
-      Vec3d e = Vec3d::Zero();
-      e[a] = step_;
-      d[a] = ((*potential_)(p + e, &sdf_) - (*potential_)(p - e, &sdf_)) / (2.0 * step_);
-    }
-    return Vec3d(d[1].z() - d[2].y(), d[2].x() - d[0].z(), d[0].y() - d[1].x()).cast<float>();
-  }
-
   // distance from the first stimulus's surface to the nearest insect (NaN without stimuli); min is exact in any order
   double nearestToStimulus(const SwarmState& s) {
     if (p_.stimuli.empty() || s.size() == 0) return std::numeric_limits<double>::quiet_NaN();
@@ -391,13 +355,10 @@ class BswarmModel final : public Model {
 
   BswarmParams p_;
   Aabb domain_;
-  GridSpec sdfSpec_, noiseSpec_;
+  GridSpec sdfSpec_;
   Grid3<float> sdf_;     // obstacles and walls, for ORCA
-  Grid3<Vec3> noise_;    // curl noise (or Perlin) with gain 1
-  bool direct_ = false;  // no noise grid: evaluated per insect
+  NoiseField noise_;     // curl noise (or Perlin) with gain 1
   bool needEscapeAngle_ = false;
-  std::unique_ptr<NoisePotential> potential_;
-  double step_ = 0.0;
   orca::Params orcaParams_;
   orca::Obstacles orcaObstacles_;
   orca::Solver solver_;

@@ -11,6 +11,7 @@
 #include "fields/curl_noise.hpp"
 #include "fields/fast_marching.hpp"
 #include "fields/grid3.hpp"
+#include "geometry/clearance.hpp"
 #include "geometry/obstacles.hpp"
 #include "geometry/signed_distance.hpp"
 #include "models/field/mde.hpp"
@@ -114,14 +115,8 @@ class FieldModel final : public Model {
     combine();
 
     // obstacle clearance uses the finer of the two distance grids
-    clearanceSdf_ = noiseFiner ? std::move(sdfNoise) : std::move(sdfCost);
-    hasObstacles_ = !obs.empty();
-    radius_ = static_cast<float>(p_.agentRadius);
-    // cells so far from obstacles that no point in them can need clearance (the
-    // distance is 1-Lipschitz; trilinear corners lie within 1.5 diagonals)
-    const float margin = radius_ + 2.0f * static_cast<float>(clearanceSdf_.spec.cell.norm());
-    clearFar_.resize(clearanceSdf_.data.size());
-    parallelFor(clearFar_.size(), [&](std::size_t c) { clearFar_[c] = clearanceSdf_.data[c] >= margin ? 1 : 0; });
+    clearance_ = ObstacleClearance(noiseFiner ? std::move(sdfNoise) : std::move(sdfCost),
+                                   static_cast<float>(p_.agentRadius), !obs.empty());
   }
 
   std::vector<std::string> statNames() const override { return {"mde_fraction", "cost_solves"}; }
@@ -236,7 +231,7 @@ class FieldModel final : public Model {
     // keep clear of obstacles and inside the domain (applied to each final position)
     const Vec3 lo = domain_.min.cast<float>(), hi = domain_.max.cast<float>();
     const auto settle = [&](std::size_t k, Vec3 x) {
-      if (hasObstacles_) x = clearObstacles(x);
+      x = clearance_.apply(x);
       x = x.cwiseMax(lo).cwiseMin(hi);
       next_.px[k] = x.x();
       next_.py[k] = x.y();
@@ -376,28 +371,6 @@ class FieldModel final : public Model {
     });
   }
 
-  // push x out along the distance gradient until it is `radius_` clear (a few
-  // projections settle corners)
-  Vec3 clearObstacles(Vec3 x) const {
-    const auto cell = clearanceSdf_.spec.cellOf(x.cast<double>());
-    if (clearFar_[clearanceSdf_.spec.index(cell[0], cell[1], cell[2])]) return x;  // far from every obstacle
-    for (int it = 0; it < 4; ++it) {
-      const float phi = clearanceSdf_.sample(x);
-      if (phi >= radius_) break;
-      Vec3 g;
-      for (int a = 0; a < 3; ++a) {
-        const float h = 0.5f * static_cast<float>(clearanceSdf_.spec.cell[a]);
-        Vec3 e = Vec3::Zero();
-        e[a] = h;
-        g[a] = (clearanceSdf_.sample(x + e) - clearanceSdf_.sample(x - e)) / (2.0f * h);
-      }
-      const Vec3 nrm = normalizedOrZero(g);
-      if (nrm.squaredNorm() == 0.0f) break;
-      x += nrm * (radius_ - phi + 1e-4f * static_cast<float>(clearanceSdf_.spec.cell.minCoeff()));
-    }
-    return x;
-  }
-
   void solveCost(double t) {
     std::vector<Vec3d> centers;
     for (const auto& g : p_.goals) centers.push_back(g.centerAt(t));
@@ -441,14 +414,12 @@ class FieldModel final : public Model {
   FieldParams p_;
   Aabb domain_;
   GridSpec costSpec_, noiseSpec_;
-  Grid3<float> clearanceSdf_;           // obstacles' signed distance on the finer grid
-  std::vector<std::uint8_t> clearFar_;  // per clearance cell: 1 = no clearance needed anywhere in it
+  ObstacleClearance clearance_;  // on the finer of the two distance grids
   FastMarchingInput fmmIn_;             // |∇C| per cost cell (inf inside obstacles) and the goal cells
   Grid3<Vec3> global_;                  // V_g (eq. 8)
   Grid3<Vec3> noise_;                   // ∇×N (eq. 1), or plain Perlin for the baseline
   Grid3<Vec3> combined_;                // noise_ + V_g on the noise grid (eq. 9)
-  bool hasGoals_ = false, dynamicGoals_ = false, hasObstacles_ = false, combinedOk_ = false;
-  float radius_ = 0.0f;
+  bool hasGoals_ = false, dynamicGoals_ = false, combinedOk_ = false;
   std::vector<Vec3d> solvedCenters_;
   double tDistance_ = 0.0, tCost_ = 0.0, tNoise_ = 0.0, tFmm_ = 0.0, lastFmmSeconds_ = 0.0;
   // statistics

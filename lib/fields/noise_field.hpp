@@ -1,0 +1,51 @@
+#pragma once
+// A curl-noise (or plain Perlin) velocity field over a domain, sampled at any
+// point: the one place the models turn NoiseParams into per-insect noise.
+//
+// When it fits (at most 256 cells per axis and `maxCells` cells) the field is
+// precomputed on a grid with about 3 samples per Perlin lattice cell and
+// sampled trilinearly; otherwise (fine noise in a large domain) it is evaluated
+// at each point: Perlin directly, or the curl of the blended potential by
+// central differences of step 0.1 of a grid cell. Curl noise is blended toward
+// the obstacles and the domain's walls (curl_noise.hpp, eq. 2-3 of wang2014),
+// so it flows along them rather than into them.
+#include <array>
+#include <memory>
+
+#include "core/vec.hpp"
+#include "core/world.hpp"
+#include "fields/curl_noise.hpp"
+#include "fields/grid3.hpp"
+
+namespace swarmsim {
+
+enum class NoiseFieldKind { kCurl, kPerlin };
+
+class NoiseField {
+ public:
+  NoiseField() = default;
+  // `cells` > 0: that grid, always; {0, 0, 0}: a grid of edge unit / (3 scale)
+  // when it fits, else direct evaluation. `boundary` (signed distance to
+  // obstacles and walls, negative inside) is the blend's distance in direct
+  // mode; it must outlive the field. Grid mode computes its own on its grid.
+  NoiseField(NoiseFieldKind kind, const NoiseParams& params, const Aabb& domain, const Obstacles& obstacles,
+             std::array<int, 3> cells, const Grid3<float>* boundary, double maxCells = 8e6);
+
+  // the field at x (m/s)
+  Vec3 operator()(const Vec3& x) const { return direct_ ? evaluate(x) : grid_.sample(x); }
+  bool direct() const { return direct_; }
+  const GridSpec& spec() const { return grid_.spec; }
+
+ private:
+  Vec3 evaluate(const Vec3& x) const;
+
+  NoiseFieldKind kind_ = NoiseFieldKind::kCurl;
+  bool direct_ = false;
+  Grid3<Vec3> grid_;
+  std::shared_ptr<const NoisePotential> potential_;
+  const Grid3<float>* boundary_ = nullptr;
+  double step_ = 0.0;  // central-difference step of direct curl, m
+  double gain_ = 1.0;  // direct Perlin: the gain (the potential carries it for curl)
+};
+
+}  // namespace swarmsim

@@ -1,0 +1,40 @@
+#pragma once
+// Keeping points out of obstacles: the last word on every position a model
+// writes, so no insect is ever inside an obstacle.
+//
+// apply(x) pushes x out along the gradient of the obstacles' signed distance
+// (sampled trilinearly) until it is `radius` clear; a few projections settle
+// corners. Cells so far from every obstacle that no point in them can need it
+// are marked once, so far-away points cost one lookup (the distance is
+// 1-Lipschitz, and trilinear corners lie within 1.5 cell diagonals).
+#include <cstdint>
+#include <vector>
+
+#include "core/vec.hpp"
+#include "fields/grid3.hpp"
+
+namespace swarmsim {
+
+class ObstacleClearance {
+ public:
+  ObstacleClearance() = default;
+  // `sdf`: signed distance to the obstacles (negative inside); `any`: whether
+  // there are obstacles at all (without, apply is the identity)
+  ObstacleClearance(Grid3<float> sdf, float radius, bool any);
+
+  Vec3 apply(Vec3 x) const;
+  // the signed distance at x and the outward unit normal there (zero where the
+  // gradient vanishes), by central differences of half a cell
+  float distance(const Vec3& x) const { return sdf_.sample(x); }
+  Vec3 normal(const Vec3& x) const;
+  bool any() const { return any_; }
+  const Grid3<float>& sdf() const { return sdf_; }
+
+ private:
+  Grid3<float> sdf_;
+  std::vector<std::uint8_t> far_;  // per cell: 1 = no clearance needed anywhere in it
+  float radius_ = 0.0f;
+  bool any_ = false;
+};
+
+}  // namespace swarmsim

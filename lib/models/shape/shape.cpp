@@ -1,0 +1,608 @@
+#include "models/shape/shape.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <sstream>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+
+#include "core/parallel.hpp"
+#include "fields/curl_noise.hpp"
+#include "fields/noise_field.hpp"
+#include "geometry/clearance.hpp"
+#include "geometry/obstacles.hpp"
+#include "geometry/signed_distance.hpp"
+#include "models/bswarm/interaction.hpp"
+#include "models/field/mde.hpp"
+#include "models/params_util.hpp"
+#include "models/shape/assignment.hpp"
+#include "models/shape/path.hpp"
+#include "models/shape/sampling.hpp"
+#include "spatial/uniform_grid.hpp"
+
+namespace swarmsim {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+constexpr double kMaxForce = 1e6;  // m/s^2: weights of the forces
+
+bool sameTopology(const TriangleMesh& a, const TriangleMesh& b) {
+  return a.vertices.size() == b.vertices.size() && a.triangles == b.triangles;
+}
+
+// a seed per topology group of keys, from the sampling seed
+std::uint64_t groupSeed(std::uint64_t seed, std::size_t group) {
+  std::uint64_t z = seed + 0x9E3779B97F4A7C15ull * (group + 1);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+class ShapeConfig final : public ModelConfig {
+ public:
+  explicit ShapeConfig(const ShapeParams& p) : p_(p) {}
+  std::unique_ptr<Model> build(const World& world) const override { return makeShape(p_, world); }
+
+ private:
+  ShapeParams p_;
+};
+
+class ShapeModel final : public Model {
+ public:
+  ShapeModel(const ShapeParams& p, const World& world) : p_(p), domain_(world.domain) {
+    const Obstacles& obs = *world.obstacles;
+    auto t0 = Clock::now();
+    // obstacle distance: clearance, the ramp of eq. 8-9 and (with the walls) the noise's blend
+    const GridSpec sdfSpec = GridSpec::covering(
+        domain_.min, domain_.max,
+        p_.sdfCells[0] > 0 ? p_.sdfCells : cellsForEdge(domain_, domain_.extent().maxCoeff() / 128.0, 4e6));
+    Grid3<float> sdf = signedDistance(obs, sdfSpec);
+    boundary_ = sdf;
+    addBoxWalls(boundary_, domain_);
+    clearance_ = ObstacleClearance(std::move(sdf), static_cast<float>(p_.agentRadius), !obs.empty());
+    tDistance_ = since(t0);
+
+    // eq. 4: F_cur = ∇ × (η p(x / ρ)): lattice cell ρ, potential η (NoiseParams' potential factor is gain · unit / scale)
+    t0 = Clock::now();
+    NoiseParams np;
+    np.scale = 1.0;
+    np.unit = p_.rho;
+    np.gain = p_.eta / p_.rho;
+    np.seeds = p_.seeds;
+    np.d0 = 0.5 * p_.rho;
+    noise_ = NoiseField(NoiseFieldKind::kCurl, np, domain_, obs, p_.noiseCells, &boundary_);
+    tNoise_ = since(t0);
+
+    // topology groups of keys: a new group where the mesh's topology changes
+    for (std::size_t k = 0; k < p_.keys.size(); ++k) {
+      if (k == 0 || !p_.keys[k].sameTopology) groupStart_.push_back(k);
+    }
+    disRange_ = p_.disRange > 0.0 ? p_.disRange : domain_.extent().norm();
+    spacing_ = spacingOf(p_.keys.front());
+    tolerance_ = static_cast<float>(spacing_);
+    if (!p_.path.points.empty()) path_ = BSplinePath(p_.path.points);
+  }
+
+  std::vector<std::string> statNames() const override {
+    return {"shape_error_mean", "shape_error_p95", "within_tolerance", "mean_speed", "mde_fraction"};
+  }
+
+  void takeFrameStats(std::vector<double>& values) override {
+    const std::size_t n = err_.size();
+    double mean = 0.0, p95 = 0.0, within = 0.0, speed = 0.0;
+    if (n > 0 && group_ >= 0) {
+      double sum = 0.0, sumSpeed = 0.0;
+      std::size_t in = 0;
+      for (std::size_t k = 0; k < n; ++k) {  // in slot order: the same for any number of threads
+        sum += err_[k];
+        sumSpeed += speed_[k];
+        in += err_[k] <= tolerance_ ? 1 : 0;
+      }
+      mean = sum / static_cast<double>(n);
+      within = static_cast<double>(in) / static_cast<double>(n);
+      speed = sumSpeed / static_cast<double>(n);
+      sortScratch_ = err_;
+      const std::size_t q = std::min(n - 1, static_cast<std::size_t>(std::ceil(0.95 * static_cast<double>(n))) - 1);
+      std::nth_element(sortScratch_.begin(), sortScratch_.begin() + static_cast<std::ptrdiff_t>(q), sortScratch_.end());
+      p95 = sortScratch_[q];
+    } else if (n > 0) {
+      double sumSpeed = 0.0;
+      for (std::size_t k = 0; k < n; ++k) sumSpeed += speed_[k];
+      speed = sumSpeed / static_cast<double>(n);
+    }
+    values = {mean, p95, within, speed,
+              frameAgentSteps_ > 0 ? static_cast<double>(frameMoved_) / static_cast<double>(frameAgentSteps_) : 0.0};
+    frameMoved_ = frameAgentSteps_ = 0;
+  }
+
+  Json facts() const override {
+    Json keys = Json::array();
+    for (const ShapeKey& k : p_.keys) {
+      keys.push_back({{"time", k.time},
+                      {"mesh", k.mesh->source},
+                      {"area_m2", surfaceArea(*k.mesh)},
+                      {"scale_up", k.scaleUp},
+                      {"sample_spacing_m", spacingOf(k)}});
+    }
+    return {{"targets", keys}, {"samples", p_.count}, {"path_length_m", path_.length()}};
+  }
+
+  Json benchInfo() const override {
+    const double steps = static_cast<double>(std::max<std::size_t>(1, timedSteps_));
+    Json info = facts();
+    info["noise_grid"] = noise_.direct() ? "direct" : std::to_string(noise_.spec().n[0]) + "x" +
+                                                         std::to_string(noise_.spec().n[1]) + "x" +
+                                                         std::to_string(noise_.spec().n[2]);
+    info["t_distance"] = tDistance_;
+    info["t_noise"] = tNoise_;
+    info["t_sampling"] = tSampling_;
+    info["t_assignment"] = tAssignment_;
+    info["ms_interaction"] = 1e3 * tInteraction_ / steps;
+    info["ms_forces"] = 1e3 * tForces_ / steps;
+    info["ms_mde"] = 1e3 * tMde_ / steps;
+    info["theta"] = p_.theta;
+    return info;
+  }
+
+  // carried between steps: which topology group is active and the assignment
+  // made when it began (it depends on where the insects were then), and the
+  // frame's statistics counters
+  void saveState(StateOut& out) const override {
+    out.put<std::int64_t>(group_);
+    out.putVector(assign_);
+    out.put<std::uint64_t>(frameMoved_);
+    out.put<std::uint64_t>(frameAgentSteps_);
+  }
+
+  void loadState(StateIn& in, const World&) override {
+    const std::int64_t g = in.get<std::int64_t>();
+    std::vector<std::uint32_t> assign = in.getVector<std::uint32_t>();
+    frameMoved_ = static_cast<std::size_t>(in.get<std::uint64_t>());
+    frameAgentSteps_ = static_cast<std::size_t>(in.get<std::uint64_t>());
+    if (g < -1 || g >= static_cast<std::int64_t>(groupStart_.size())) throw std::runtime_error("shape checkpoint: bad group");
+    if (g >= 0) {
+      prepareGroup(static_cast<std::size_t>(g), assign.size());
+      assign_ = std::move(assign);
+    }
+    group_ = g;
+  }
+
+  void step(const World& world, SwarmState& s, const StepInfo& info) override {
+    const std::size_t n = s.size();
+    const double t = info.time;
+    const float dt = static_cast<float>(world.dt);
+    const auto tStep = Clock::now();
+
+    // the topology group of this time; entering one samples its mesh and assigns the insects to the samples
+    std::int64_t g = -1;
+    for (std::size_t i = 0; i < groupStart_.size(); ++i) {
+      if (t + 1e-9 * world.dt >= p_.keys[groupStart_[i]].time) g = static_cast<std::int64_t>(i);
+    }
+    if (g != group_) {
+      group_ = g;
+      if (g >= 0) {
+        prepareGroup(static_cast<std::size_t>(g), n);
+        assignFrom(s, t);
+      }
+    }
+
+    // one grid per step: F_int, F_con and MDE all use it
+    const float kh = static_cast<float>(p_.k * spacing_);
+    const float md = static_cast<float>(p_.minDistance);
+    const float mdReach = md + 2.0f * static_cast<float>(p_.maxSpeed) * dt;  // movement within the step
+    grid_.build(s.px.data(), s.py.data(), s.pz.data(), n, std::max({kh, mdReach, 1e-4f}));
+    const auto& order = grid_.order();
+    for (auto* a : {&vx_, &vy_, &vz_, &fx_, &fy_, &fz_, &tx_, &ty_, &tz_, &nvx_, &nvy_, &nvz_}) a->resize(n);
+    ids_.resize(n);
+    err_.resize(n);
+    speed_.resize(n);
+    parallelFor(n, [&](std::size_t k) {
+      const std::uint32_t i = order[k];
+      vx_[k] = s.vx[i];
+      vy_[k] = s.vy[i];
+      vz_[k] = s.vz[i];
+      ids_[k] = s.id[i];
+    });
+
+    // F_int (eq. 2-3): the zonal force, with the far field approximated
+    auto t0 = Clock::now();
+    ZoneParams zones;
+    zones.rRep = static_cast<float>(p_.rRep);
+    zones.rAli = static_cast<float>(p_.rAli);
+    zones.rAtt = static_cast<float>(p_.rAtt);
+    zones.lambdaRep = static_cast<float>(p_.wRep);
+    zones.lambdaAli = static_cast<float>(p_.wAli);
+    zones.lambdaAtt = static_cast<float>(p_.wAtt);
+    forces_.compute(grid_, vx_.data(), vy_.data(), vz_.data(), zones, static_cast<float>(p_.theta), fx_.data(),
+                    fy_.data(), fz_.data());
+    tInteraction_ += since(t0);
+
+    // the targets now: keyframe interpolation inside the group, then the path
+    t0 = Clock::now();
+    const bool shaped = group_ >= 0;
+    std::size_t keyA = 0, keyB = 0;
+    float f = 0.0f;
+    if (shaped) keyPair(t, keyA, keyB, f);
+    const Eigen::Matrix3f rot = pathRotation(t);
+    const Vec3 shift = pathShift(t), pivot = path_.empty() ? Vec3::Zero() : Vec3(path_.at(0.0).cast<float>());
+    const float alpha = static_cast<float>(p_.alpha);
+    const float wCon = static_cast<float>(p_.wCon), wDis = static_cast<float>(p_.wDis);
+    const float sigma = static_cast<float>(p_.omega * spacing_);
+    const float invRange = static_cast<float>(1.0 / disRange_);
+    const float vmax = static_cast<float>(p_.maxSpeed), L = static_cast<float>(p_.obstacleRange);
+    const float* sx = grid_.sortedX().data();
+    const float* sy = grid_.sortedY().data();
+    const float* sz = grid_.sortedZ().data();
+    const bool obstacles = clearance_.any();
+
+    parallelFor(n, [&](std::size_t k) {
+      const Vec3 x(sx[k], sy[k], sz[k]);
+      Vec3 v(vx_[k], vy_[k], vz_[k]);
+      const Vec3 internal = Vec3(fx_[k], fy_[k], fz_[k]) + noise_(x);
+      Vec3 external = Vec3::Zero();
+      if (shaped) {
+        // F_con (eq. 5): spread from the insects within the Manhattan threshold, Gaussian fall-off
+        ShapeConstraintSum con(kh, sigma);
+        grid_.forEachNeighbor(sx[k], sy[k], sz[k], kh, [&](std::uint32_t j, float dx, float dy, float dz, float d2) {
+          if (j != k) con.add(dx, dy, dz, d2);
+        });
+        external += con.force(wCon);
+        // F_dis (eq. 6-7): toward the insect's own sample point
+        const Vec3 target = targetOf(ids_[k], keyA, keyB, f, rot, shift, pivot);
+        external += distanceForce(x, target, wDis, invRange);
+      }
+      const Vec3 force = alpha * internal + (1.0f - alpha) * external;
+      // Newton's second law, unit mass; the fly's top speed
+      v += force * dt;
+      const float sp = v.norm();
+      if (sp > vmax) v *= vmax / sp;
+      // eq. 8-9: near an obstacle the velocity ramps toward the tangent (only an approach is bent)
+      if (obstacles) {
+        const float dist = clearance_.distance(x);
+        if (dist < L) {
+          const Vec3 nrm = clearance_.normal(x);
+          const float vn = nrm.dot(v);
+          if (vn < 0.0f) v -= nrm * (vn * (1.0f - static_cast<float>(ramp(static_cast<double>(dist / L)))));
+        }
+      }
+      nvx_[k] = v.x();
+      nvy_[k] = v.y();
+      nvz_[k] = v.z();
+      tx_[k] = x.x() + v.x() * dt;
+      ty_[k] = x.y() + v.y() * dt;
+      tz_[k] = x.z() + v.z() * dt;
+    });
+    tForces_ += since(t0);
+
+    // minimum distance enforcement on the moved positions (neighbours from this step's grid: nobody moved
+    // more than max speed · dt), then obstacle clearance and the domain; the state is rewritten in grid order
+    t0 = Clock::now();
+    next_.resizeStorage(n);
+    movedFlag_.resize(n);
+    const Vec3 lo = domain_.min.cast<float>(), hi = domain_.max.cast<float>();
+    parallelFor(n, [&](std::size_t k) {
+      Vec3 x(tx_[k], ty_[k], tz_[k]);
+      bool pushed = false;
+      if (md > 0.0f) {
+        MdePush kernel(md);
+        kernel.start(tx_[k], ty_[k], tz_[k]);
+        grid_.forEachRun(sx[k], sy[k], sz[k], mdReach,
+                         [&](std::uint32_t b, std::uint32_t e) { kernel.add(tx_.data(), ty_.data(), tz_.data(), b, e); });
+        x += kernel.push();
+        pushed = kernel.hits() > 0;
+        if (kernel.zeros() > 1) {
+          // an exactly coincident neighbour (rare): the pair separates along x, ordered by id
+          grid_.forEachRun(sx[k], sy[k], sz[k], mdReach, [&](std::uint32_t b, std::uint32_t e) {
+            for (std::uint32_t j = b; j < e; ++j) {
+              if (j == k || tx_[j] != tx_[k] || ty_[j] != ty_[k] || tz_[j] != tz_[k]) continue;
+              x.x() += (ids_[k] < ids_[j] ? -0.5f : 0.5f) * md;
+              pushed = true;
+            }
+          });
+        }
+      }
+      x = clearance_.apply(x).cwiseMax(lo).cwiseMin(hi);
+      movedFlag_[k] = pushed ? 1 : 0;
+      next_.px[k] = x.x();
+      next_.py[k] = x.y();
+      next_.pz[k] = x.z();
+      next_.vx[k] = nvx_[k];
+      next_.vy[k] = nvy_[k];
+      next_.vz[k] = nvz_[k];
+      next_.id[k] = ids_[k];
+      speed_[k] = Vec3(nvx_[k], nvy_[k], nvz_[k]).norm();
+      if (shaped) err_[k] = (targetOf(ids_[k], keyA, keyB, f, rot, shift, pivot) - x).norm();
+    });
+    std::size_t moved = 0;
+    for (std::size_t k = 0; k < n; ++k) moved += movedFlag_[k];
+    tMde_ += since(t0);
+    s.swapStorage(next_);
+
+    frameMoved_ += moved;
+    frameAgentSteps_ += n;
+    if (info.step == 0) {
+      tInteraction_ = tForces_ = tMde_ = 0.0;  // the first step sizes every buffer: not timed
+    } else {
+      ++timedSteps_;
+    }
+    (void)tStep;
+  }
+
+ private:
+  // h = sqrt(A / N) of a key's mesh (eq. 5: the mean spacing of its samples)
+  double spacingOf(const ShapeKey& k) const {
+    return std::sqrt(surfaceArea(*k.mesh) / static_cast<double>(std::max<std::int64_t>(1, p_.count)));
+  }
+
+  // samples of group g's mesh (n of them) at each of its keys
+  void prepareGroup(std::size_t g, std::size_t n) {
+    const auto t0 = Clock::now();
+    const std::size_t first = groupStart_[g];
+    const std::size_t last = g + 1 < groupStart_.size() ? groupStart_[g + 1] : p_.keys.size();
+    const TriangleMesh& mesh = *p_.keys[first].mesh;
+    const std::vector<SurfacePoint> samples = sampleSurface(mesh, n, groupSeed(p_.sampleSeed, g));
+    spacing_ = spacingOf(p_.keys[first]);
+    tolerance_ = static_cast<float>(spacing_);
+    keyFirst_ = first;
+    keyLast_ = last;
+    keyPos_.assign(last - first, {});
+    for (std::size_t k = first; k < last; ++k) {
+      std::vector<Vec3>& pos = keyPos_[k - first];
+      pos.resize(n);
+      const TriangleMesh& m = *p_.keys[k].mesh;
+      parallelFor(n, [&](std::size_t i) { pos[i] = surfacePoint(m, samples[i]).cast<float>(); });
+    }
+    tSampling_ += since(t0);
+  }
+
+  // each insect (by id) to a sample of the group's first key, near-optimal in total distance
+  void assignFrom(const SwarmState& s, double t) {
+    const auto t0 = Clock::now();
+    const std::size_t n = s.size();
+    std::size_t a = 0, b = 0;
+    float f = 0.0f;
+    keyPair(t, a, b, f);
+    const Eigen::Matrix3f rot = pathRotation(t);
+    const Vec3 shift = pathShift(t), pivot = path_.empty() ? Vec3::Zero() : Vec3(path_.at(0.0).cast<float>());
+    std::vector<Vec3> agents(n), targets(n);
+    parallelFor(n, [&](std::size_t i) {
+      agents[s.id[i]] = s.position(i);
+      targets[i] = place(keyPos_[a][i] + f * (keyPos_[b][i] - keyPos_[a][i]), rot, shift, pivot);
+    });
+    assign_ = assignTargets(agents, targets);
+    tAssignment_ += since(t0);
+  }
+
+  // the keys of the active group around time t and the fraction between them
+  void keyPair(double t, std::size_t& a, std::size_t& b, float& f) const {
+    a = b = 0;
+    f = 0.0f;
+    for (std::size_t k = keyFirst_; k + 1 < keyLast_; ++k) {
+      if (t >= p_.keys[k].time) {
+        a = k - keyFirst_;
+        b = a + 1;
+        const double span = p_.keys[k + 1].time - p_.keys[k].time;
+        f = static_cast<float>(std::clamp((t - p_.keys[k].time) / span, 0.0, 1.0));
+      }
+    }
+    if (keyLast_ - keyFirst_ == 1) b = a;
+  }
+
+  double pathDistance(double t) const {
+    if (path_.empty()) return 0.0;
+    return std::min(path_.length(), p_.path.speed * std::max(0.0, t - p_.path.start));
+  }
+  Vec3 pathShift(double t) const {
+    if (path_.empty()) return Vec3::Zero();
+    return path_.at(pathDistance(t)).cast<float>();
+  }
+  // rotation about z by the change of the path's heading since its start
+  Eigen::Matrix3f pathRotation(double t) const {
+    if (path_.empty() || !p_.path.turn) return Eigen::Matrix3f::Identity();
+    const Vec3d a = path_.tangent(0.0), b = path_.tangent(pathDistance(t));
+    const double yaw = std::atan2(b.y(), b.x()) - std::atan2(a.y(), a.x());
+    return Eigen::AngleAxisd(yaw, Vec3d::UnitZ()).toRotationMatrix().cast<float>();
+  }
+  // a point of the placed mesh carried along the path: C(s) + R (p − C(0))
+  static Vec3 place(const Vec3& p, const Eigen::Matrix3f& rot, const Vec3& shift, const Vec3& pivot) {
+    return shift == Vec3::Zero() && pivot == Vec3::Zero() ? p : Vec3(shift + rot * (p - pivot));
+  }
+  Vec3 targetOf(std::uint32_t id, std::size_t a, std::size_t b, float f, const Eigen::Matrix3f& rot, const Vec3& shift,
+                const Vec3& pivot) const {
+    const std::uint32_t i = assign_[id];
+    const Vec3& pa = keyPos_[a][i];
+    return place(pa + f * (keyPos_[b][i] - pa), rot, shift, pivot);
+  }
+
+  ShapeParams p_;
+  Aabb domain_;
+  Grid3<float> boundary_;  // obstacles and walls (the noise's blend)
+  ObstacleClearance clearance_;
+  NoiseField noise_;
+  BSplinePath path_;
+  InteractionForces forces_;
+  UniformGrid grid_;
+  double disRange_ = 1.0, spacing_ = 1.0;
+  float tolerance_ = 1.0f;
+  std::vector<std::size_t> groupStart_;
+  std::int64_t group_ = -1;             // the active topology group (-1: before the first key)
+  std::size_t keyFirst_ = 0, keyLast_ = 0;  // its keys
+  std::vector<std::vector<Vec3>> keyPos_;   // per key of the group: sample positions (placed mesh)
+  std::vector<std::uint32_t> assign_;       // insect id -> sample
+  // per step, in grid order
+  std::vector<float> vx_, vy_, vz_, fx_, fy_, fz_, tx_, ty_, tz_, nvx_, nvy_, nvz_;
+  std::vector<std::uint32_t> ids_;
+  std::vector<std::uint8_t> movedFlag_;
+  std::vector<float> err_, speed_, sortScratch_;
+  SwarmState next_;
+  std::size_t frameMoved_ = 0, frameAgentSteps_ = 0, timedSteps_ = 0;
+  double tDistance_ = 0.0, tNoise_ = 0.0, tSampling_ = 0.0, tAssignment_ = 0.0;
+  double tInteraction_ = 0.0, tForces_ = 0.0, tMde_ = 0.0;
+};
+
+}  // namespace
+
+ShapeParams readShapeParams(JsonReader& r, const ModelContext& context) {
+  ShapeParams p;
+  p.alpha = r.number("alpha", p.alpha, Range::closed(0.0, 1.0));
+  p.rRep = r.number("r_rep", p.rRep, Range::length());
+  p.rAli = r.number("r_ali", p.rAli, Range::length());
+  p.rAtt = r.number("r_att", p.rAtt, Range::length());
+  if (!(p.rRep <= p.rAli)) r.fail("r_ali", "expected r_rep <= r_ali <= r_att");
+  if (!(p.rAli <= p.rAtt)) r.fail("r_att", "expected r_rep <= r_ali <= r_att");
+  const Range weight = Range::nonNegative().limited(0.0, kMaxForce);
+  p.wRep = r.number("w_rep", p.wRep, weight);
+  p.wAli = r.number("w_ali", p.wAli, weight);
+  p.wAtt = r.number("w_att", p.wAtt, weight);
+  p.theta = r.number("far_field_theta", p.theta, Range::closed(0.0, 2.0));
+  {
+    JsonReader nz = r.object("noise", false);
+    p.rho = nz.number("rho", p.rho, Range::length());
+    checkNoiseFrequency(nz, "rho", context.world.domain, 1.0, 1.0 / p.rho);
+    p.eta = nz.number("eta", p.eta, Range::nonNegative().limited(0.0, kMaxLength));
+    readSeeds(nz, "seeds", p.seeds);
+    p.noiseCells = readCells(nz, "cells", false, 2, 1024);
+    nz.finish();
+  }
+  p.k = r.number("k", p.k, Range::positive().limited(1e-3, 1e3));
+  p.omega = r.number("omega", p.omega, Range::positive().limited(1e-3, 1e3));
+  p.wCon = r.number("w_con", p.wCon, weight);
+  p.wDis = r.number("w_dis", p.wDis, weight);
+  p.disRange = r.number("distance_range", p.disRange, Range::lengthOrZero());
+  p.maxSpeed = r.number("max_speed", p.maxSpeed, Range::positiveSpeed());
+  p.minDistance = r.number("min_distance", p.minDistance, Range::lengthOrZero());
+  p.obstacleRange = r.number("obstacle_range", p.obstacleRange, Range::length());
+  p.agentRadius = r.number("agent_radius", p.agentRadius, Range::lengthOrZero());
+  p.sdfCells = readCells(r, "sdf_cells", false, 2, 1024);
+  p.sampleSeed = r.unsignedInteger("sample_seed", context.world.seed);
+  p.count = context.count;
+
+  double lastTime = -1.0;
+  // targets: [{"time": t, "file": OBJ, "translate", "rotate", "scale"}, ...] with increasing times, or an
+  // entry with "files": [OBJ, ...] and "interval": s (one key per file, `interval` apart, the list repeated
+  // `repeat` times and closed by its first file again: a looping animation)
+  std::vector<JsonReader> targets = r.objectArray("targets", true, 1);
+  const auto addKey = [&](JsonReader& k, double time, const std::string& what, TriangleMesh mesh) {
+    if (!(time > lastTime)) k.failExpected("time", "a time later than the previous target's", time);
+    if (time > context.seconds) {
+      k.failExpected("time", "a time within the run (0 to " + std::to_string(context.seconds) + " s)", time);
+    }
+    lastTime = time;
+    ShapeKey key;
+    key.time = time;
+    const double area = surfaceArea(mesh);
+    if (!(area > 0.0)) k.fail(what, mesh.source + ": the mesh has no area (every triangle is degenerate)");
+    const bool same = !p.keys.empty() && sameTopology(mesh, *p.keys.back().mesh);
+    if (!p.keys.empty() && k.boolean("animated", same)) {
+      if (!same) {
+        k.fail("animated", mesh.source + ": an animated target must have the previous target's vertex count and " +
+                               "faces (" + std::to_string(mesh.vertices.size()) + " vertices and " +
+                               std::to_string(mesh.triangles.size()) + " triangles, the previous " +
+                               std::to_string(p.keys.back().mesh->vertices.size()) + " and " +
+                               std::to_string(p.keys.back().mesh->triangles.size()) + ")");
+      }
+      key.sameTopology = true;
+    }
+    // section 5.1: neighbouring samples at least the insects' minimum distance apart; a mesh too small
+    // for the swarm is scaled up about its centre (an animated sequence by its first key's factor and centre)
+    const double spacing = std::sqrt(area / static_cast<double>(std::max<std::int64_t>(1, context.count)));
+    Vec3d centre = mesh.bounds().center();
+    if (key.sameTopology) {
+      key.scaleUp = p.keys.back().scaleUp;
+      centre = p.keys.back().scaleCentre;
+    } else if (p.minDistance > 0.0 && spacing < p.minDistance) {
+      key.scaleUp = p.minDistance / spacing;
+      std::ostringstream msg;
+      msg << mesh.source << ": scaled up " << key.scaleUp << " times so that " << context.count
+          << " insects keep the minimum distance of " << p.minDistance << " m (" << k.pathOf(what) << ")";
+      context.warnings.push_back(msg.str());
+    }
+    key.scaleCentre = centre;
+    if (key.scaleUp != 1.0) {
+      for (Vec3d& v : mesh.vertices) v = centre + key.scaleUp * (v - centre);
+    }
+    key.mesh = std::make_shared<const TriangleMesh>(std::move(mesh));
+    p.keys.push_back(std::move(key));
+  };
+  for (JsonReader& k : targets) {
+    const double t0 = k.number("time", 0.0, Range::nonNegative().limited(0.0, kMaxDuration));
+    if (!k.has("files")) {
+      addKey(k, t0, "file", readPlacedMesh(k, context.scenarioFile));
+      k.finish();
+      continue;
+    }
+    const Json* list = k.raw("files");
+    std::vector<std::string> files;
+    if (list && list->is_array()) {
+      for (const Json& f : *list) {
+        if (f.is_string() && !f.get<std::string>().empty()) files.push_back(f.get<std::string>());
+      }
+    }
+    if (!list || !list->is_array() || list->empty() || files.size() != list->size()) {
+      k.failExpected("files", "a non-empty array of OBJ file names", list ? *list : Json());
+    }
+    const double interval = k.requireNumber("interval", Range::duration());
+    const std::int64_t repeat = k.integer("repeat", 1, 1, 100000);
+    // each file placed as the entry says: read through a copy of the entry with "file" set
+    std::vector<TriangleMesh> meshes;
+    for (std::size_t i = 0; i < files.size(); ++i) {
+      Json one = Json::object();
+      for (const char* key : {"translate", "rotate", "scale"}) {
+        if (const Json* v = k.raw(key)) one[key] = *v;
+      }
+      one["file"] = files[i];
+      JsonReader single(one, k.file(), k.pathOf("files") + "[" + std::to_string(i) + "]", nullptr);
+      meshes.push_back(readPlacedMesh(single, context.scenarioFile));
+    }
+    for (std::int64_t rep = 0; rep < repeat; ++rep) {
+      for (std::size_t i = 0; i < meshes.size(); ++i) {
+        const double t = t0 + interval * static_cast<double>(rep * static_cast<std::int64_t>(meshes.size()) + i);
+        addKey(k, t, "files", meshes[i]);
+      }
+    }
+    addKey(k, t0 + interval * static_cast<double>(repeat * static_cast<std::int64_t>(meshes.size())), "files",
+           meshes.front());
+    k.finish();
+  }
+  if (r.has("path")) {
+    JsonReader pr = r.object("path", false);
+    const Json* pts = pr.raw("points");
+    if (!pts || !pts->is_array()) pr.failMissing("points", "an array of at least 4 points [x, y, z]");
+    if (pts->size() < BSplinePath::kDegree + 1) {
+      pr.failExpected("points", "at least 4 control points (a cubic B-spline)", *pts);
+    }
+    for (std::size_t i = 0; i < pts->size(); ++i) {
+      const Json& q = (*pts)[i];
+      if (!q.is_array() || q.size() != 3 || !q[0].is_number() || !q[1].is_number() || !q[2].is_number()) {
+        pr.failExpected("points", "points [x, y, z] of finite numbers (point " + std::to_string(i) + ")", *pts);
+      }
+      Vec3d v(q[0].get<double>(), q[1].get<double>(), q[2].get<double>());
+      for (int a = 0; a < 3; ++a) {
+        if (!(std::abs(v[a]) <= kMaxCoordinate)) {
+          pr.failExpected("points", "coordinates within the limit (|x| <= 1e9) (point " + std::to_string(i) + ")", *pts);
+        }
+      }
+      p.path.points.push_back(v);
+    }
+    pr.resolve("points", *pts);
+    p.path.speed = pr.number("speed", p.path.speed, Range::speed());
+    p.path.start = pr.number("start", p.path.start, Range::nonNegative().limited(0.0, kMaxDuration));
+    p.path.turn = pr.boolean("turn", p.path.turn);
+    pr.finish();
+  }
+  return p;
+}
+
+std::shared_ptr<const ModelConfig> parseShape(JsonReader& params, const ModelContext& context) {
+  return std::make_shared<ShapeConfig>(readShapeParams(params, context));
+}
+
+std::unique_ptr<Model> makeShape(const ShapeParams& params, const World& world) {
+  return std::make_unique<ShapeModel>(params, world);
+}
+
+}  // namespace swarmsim

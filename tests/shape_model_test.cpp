@@ -1,0 +1,113 @@
+// The shape-constrained model (lib/models/shape, chen2019): eq. 5 and eq. 6 against
+// hand-worked values, F_dis's shape (zero at the target, toward it everywhere in
+// range), the B-spline path against its closed form.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <random>
+#include <stdexcept>
+#include <vector>
+
+#include "models/shape/path.hpp"
+#include "models/shape/shape.hpp"
+
+using Catch::Detail::Approx;
+using swarmsim::Vec3;
+using swarmsim::Vec3d;
+
+TEST_CASE("shape: the distance profile of eq. 6-7", "[shape]") {
+  // 4 (d - 0.5)^3 + 0.5 on (0, 1], 0 elsewhere (H = 0 outside the normalised range)
+  CHECK(swarmsim::distanceProfile(0.0f) == 0.0f);
+  CHECK(swarmsim::distanceProfile(0.25f) == Approx(0.4375));  // 4 (-0.25)^3 + 0.5
+  CHECK(swarmsim::distanceProfile(0.5f) == Approx(0.5));
+  CHECK(swarmsim::distanceProfile(0.75f) == Approx(0.5625));
+  CHECK(swarmsim::distanceProfile(1.0f) == Approx(1.0));
+  CHECK(swarmsim::distanceProfile(1.001f) == 0.0f);
+  CHECK(swarmsim::distanceProfile(-0.5f) == 0.0f);
+  // near the target it grows like 3 d (the cubic's slope at 0 is 12 * 0.25 = 3)
+  CHECK(swarmsim::distanceProfile(1e-3f) == Approx(3e-3).epsilon(0.01));
+}
+
+TEST_CASE("shape: F_dis (eq. 6) by hand, zero at the target and toward it in range", "[shape]") {
+  // x at the origin, s at (3, 4, 0): distance 5, range 10 -> d = 0.5, profile 0.5; w_dis 4 -> |F| = 2 along (0.6, 0.8, 0)
+  const Vec3 f = swarmsim::distanceForce(Vec3(0, 0, 0), Vec3(3, 4, 0), 4.0f, 0.1f);
+  CHECK(f.x() == Approx(1.2));
+  CHECK(f.y() == Approx(1.6));
+  CHECK(f.z() == Approx(0.0).margin(1e-7));
+  // range 5: d = 1 -> profile 1, |F| = 4
+  CHECK(swarmsim::distanceForce(Vec3(0, 0, 0), Vec3(3, 4, 0), 4.0f, 0.2f).norm() == Approx(4.0));
+  // beyond the range: none
+  CHECK(swarmsim::distanceForce(Vec3(0, 0, 0), Vec3(3, 4, 0), 4.0f, 0.5f).norm() == 0.0f);
+  // at the target: zero
+  CHECK(swarmsim::distanceForce(Vec3(1, 2, 3), Vec3(1, 2, 3), 4.0f, 0.1f).norm() == 0.0f);
+  // toward the target everywhere in range
+  std::mt19937 gen(5);
+  std::uniform_real_distribution<float> u(-6.0f, 6.0f);
+  const Vec3 s(0.5f, -1.0f, 2.0f);
+  int inRange = 0;
+  for (int i = 0; i < 2000; ++i) {
+    const Vec3 x = s + Vec3(u(gen), u(gen), u(gen));
+    const Vec3 fd = swarmsim::distanceForce(x, s, 4.0f, 1.0f / 8.0f);
+    if ((x - s).norm() <= 8.0f) {
+      ++inRange;
+      REQUIRE(fd.norm() > 0.0f);
+      CHECK(fd.normalized().dot((s - x).normalized()) == Approx(1.0).margin(1e-5));
+    } else {
+      CHECK(fd.norm() == 0.0f);
+    }
+  }
+  CHECK(inRange > 1000);
+}
+
+TEST_CASE("shape: F_con (eq. 5) by hand", "[shape]") {
+  // threshold k h = 0.8 (Manhattan), sigma = 0.36 (omega 0.9 of h 0.4)
+  swarmsim::ShapeConstraintSum con(0.8f, 0.36f);
+  con.add(0.1f, 0.0f, 0.0f, 0.01f);   // M 0.1: weight exp(-0.01 / 0.2592) = 0.962155, away = (-1, 0, 0)
+  con.add(0.0f, -0.2f, 0.0f, 0.04f);  // M 0.2: weight exp(-0.04 / 0.2592) = 0.856997, away = (0, 1, 0)
+  con.add(0.3f, 0.3f, 0.3f, 0.27f);   // M 0.9 >= 0.8: not a neighbour (its Euclidean 0.52 would be)
+  con.add(0.0f, 0.0f, 0.0f, 0.0f);    // the insect's own position: skipped
+  REQUIRE(con.count == 2);
+  const Vec3 f = con.force(1.0f);
+  CHECK(f.x() == Approx(-0.962155 / 2).epsilon(1e-5));
+  CHECK(f.y() == Approx(0.856997 / 2).epsilon(1e-5));
+  CHECK(f.z() == Approx(0.0).margin(1e-7));
+  CHECK(con.force(3.0f).x() == Approx(3.0 * -0.962155 / 2).epsilon(1e-5));
+  // no neighbours: no force
+  swarmsim::ShapeConstraintSum none(0.8f, 0.36f);
+  CHECK(none.force(1.0f).norm() == 0.0f);
+}
+
+TEST_CASE("shape: cubic B-spline path, arc length", "[shape]") {
+  SECTION("four points: a cubic Bezier; equally spaced collinear points give a uniform line") {
+    const swarmsim::BSplinePath p({Vec3d(0, 0, 0), Vec3d(1, 0, 0), Vec3d(2, 0, 0), Vec3d(3, 0, 0)});
+    CHECK(p.length() == Approx(3.0).epsilon(1e-9));
+    for (double s : {0.0, 0.4, 1.5, 2.9, 3.0}) CHECK((p.at(s) - Vec3d(s, 0, 0)).norm() < 1e-9);
+    CHECK((p.tangent(1.0) - Vec3d(1, 0, 0)).norm() < 1e-9);
+    CHECK((p.at(10.0) - Vec3d(3, 0, 0)).norm() < 1e-12);  // clamped
+  }
+  SECTION("ends are interpolated; the curve is C2 and arc length is uniform") {
+    const std::vector<Vec3d> c = {Vec3d(0, 0, 0), Vec3d(5, 0, 0), Vec3d(5, 5, 1), Vec3d(0, 5, 2),
+                                  Vec3d(-5, 5, 2), Vec3d(-5, 0, 0)};
+    const swarmsim::BSplinePath p(c);
+    CHECK((p.at(0.0) - c.front()).norm() < 1e-12);
+    CHECK((p.at(p.length()) - c.back()).norm() < 1e-9);
+    // equal steps of arc length are equal chords (to the chord's second-order error)
+    const int steps = 400;
+    const double ds = p.length() / steps;
+    for (int i = 0; i < steps; ++i) {
+      const double chord = (p.at((i + 1) * ds) - p.at(i * ds)).norm();
+      CHECK(chord == Approx(ds).epsilon(2e-3));
+    }
+    // the length against an independent fine polyline of the parameterisation
+    double fine = 0.0;
+    Vec3d prev = p.atParameter(0.0);
+    for (int i = 1; i <= 200000; ++i) {
+      const Vec3d q = p.atParameter(i / 200000.0);
+      fine += (q - prev).norm();
+      prev = q;
+    }
+    CHECK(p.length() == Approx(fine).epsilon(1e-6));
+  }
+  SECTION("fewer control points than a cubic needs") {
+    CHECK_THROWS_AS(swarmsim::BSplinePath({Vec3d(0, 0, 0), Vec3d(1, 0, 0), Vec3d(2, 0, 0)}), std::invalid_argument);
+  }
+}
