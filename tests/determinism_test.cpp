@@ -14,6 +14,7 @@
 
 using swarmsim::Json;
 using swarmsim_test::TempDir;
+using swarmsim_test::ThreadCountGuard;
 
 namespace {
 
@@ -34,11 +35,6 @@ Json determinismScenario() {
     ]
   })");
 }
-
-struct ThreadCountGuard {
-  int saved = swarmsim::threadCount();
-  ~ThreadCountGuard() { swarmsim::setThreadCount(saved); }
-};
 
 bool sameBytes(const std::vector<float>& a, const std::vector<float>& b) {
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;

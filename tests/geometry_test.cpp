@@ -16,6 +16,7 @@
 #include "geometry/mesh.hpp"
 #include "geometry/obstacles.hpp"
 #include "geometry/signed_distance.hpp"
+#include "brute_distance.hpp"
 #include "test_util.hpp"
 
 using Catch::Matchers::Contains;
@@ -30,6 +31,7 @@ using swarmsim::TriangleMesh;
 using swarmsim::Vec3;
 using swarmsim::Vec3d;
 using swarmsim_test::TempDir;
+using swarmsim_test::bruteDistance;
 
 namespace {
 
@@ -150,31 +152,6 @@ double boxDistance(const Vec3d& lo, const Vec3d& hi, const Vec3d& p) {
     inside = std::max(inside, d);
   }
   return outside2 > 0.0 ? std::sqrt(outside2) : inside;
-}
-
-// exact squared distance from p to triangle (a, b, c), by brute force over the
-// face and the three edges
-double bruteTriangleDist2(const Vec3d& p, const Vec3d& a, const Vec3d& b, const Vec3d& c) {
-  auto segment = [&](const Vec3d& x, const Vec3d& y) {
-    const Vec3d d = y - x;
-    const double s = std::clamp((p - x).dot(d) / d.squaredNorm(), 0.0, 1.0);
-    return (x + s * d - p).squaredNorm();
-  };
-  double best = std::min({segment(a, b), segment(b, c), segment(c, a)});
-  const Vec3d n = (b - a).cross(c - a);
-  const Vec3d q = p - n * ((p - a).dot(n) / n.squaredNorm());
-  if ((b - a).cross(q - a).dot(n) >= 0 && (c - b).cross(q - b).dot(n) >= 0 && (a - c).cross(q - c).dot(n) >= 0) {
-    best = std::min(best, (q - p).squaredNorm());
-  }
-  return best;
-}
-
-double bruteDistance(const TriangleMesh& m, const Vec3d& p) {
-  double best = 1e300;
-  for (const auto& t : m.triangles) {
-    best = std::min(best, bruteTriangleDist2(p, m.vertices[t[0]], m.vertices[t[1]], m.vertices[t[2]]));
-  }
-  return std::sqrt(best);
 }
 
 Obstacles meshes(std::vector<TriangleMesh> ms) {

@@ -18,6 +18,8 @@
 #include <system_error>
 #include <vector>
 
+#include "core/parallel.hpp"
+
 namespace swarmsim_test {
 
 namespace fs = std::filesystem;
@@ -166,5 +168,11 @@ inline bool waitForFile(const std::string& path, pid_t pid, long ms) {
   }
   return false;
 }
+
+// restores the thread count on scope exit
+struct ThreadCountGuard {
+  int saved = swarmsim::threadCount();
+  ~ThreadCountGuard() { swarmsim::setThreadCount(saved); }
+};
 
 }  // namespace swarmsim_test
