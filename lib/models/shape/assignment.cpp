@@ -89,6 +89,7 @@ void splitSegment(Item* a, Item* t, std::size_t n, std::size_t at) {
   std::nth_element(a, a + at, a + n, less);
   if (t != nullptr) std::nth_element(t, t + at, t + n, less);
 }
+
 inline float itemDistance(const Item& a, const Item& t) {
   return distance(a.p[0], a.p[1], a.p[2], t.p[0], t.p[1], t.p[2]);
 }
@@ -116,21 +117,18 @@ void matchTiny(const Item* a, Item* t, std::size_t n) {
 }
 
 void partitionSerial(Item* a, Item* t, std::size_t n, std::size_t leaf) {
-  if (t != nullptr && leaf == 1 && n <= 3) {
-    matchTiny(a, t, n);
-    return;
-  }
-  while (n > leaf) {  // recurse on the lower part, loop on the upper one
+  for (;;) {  // recurse on the lower part, loop on the upper one
+    if (t != nullptr && leaf == 1 && n <= 3) {
+      matchTiny(a, t, n);
+      return;
+    }
+    if (n <= leaf) return;
     const std::size_t at = splitPoint(n, leaf);
     splitSegment(a, t, n, at);
     partitionSerial(a, t, at, leaf);
     a += at;
     if (t != nullptr) t += at;
     n -= at;
-    if (t != nullptr && leaf == 1 && n <= 3) {
-      matchTiny(a, t, n);
-      return;
-    }
   }
 }
 
@@ -188,9 +186,9 @@ void buildSwapGrid(UniformGrid& grid, const std::vector<float>& x, const std::ve
   const double extent = std::max({double(*x1) - *x0, double(*y1) - *y0, double(*z1) - *z0});
   double edge = extent > 0.0 ? extent / std::cbrt(static_cast<double>(n)) : 1.0;
   for (int attempt = 0;; ++attempt) {
+    edge = std::max(edge, static_cast<double>(std::numeric_limits<float>::min()));  // > 0 as a float too
     grid.build(x.data(), y.data(), z.data(), n, static_cast<float>(edge), kCellsPerPoint);
     // mean number of points in the cell of a point: sum of squared counts / n
-    // (integer sums: exact in any order)
     std::uint64_t sum = 0;
     for (std::size_t c = 0; c < grid.cellCount(); ++c) {
       const std::uint64_t m = grid.cellEnd(c) - grid.cellBegin(c);
