@@ -35,7 +35,7 @@ esac
 quick_exclude='BSwarm scenarios keep every insect|Field scenarios: no agent ends inside|CLI runs every shipped scenario'
 quick_exclude+='|bit-identical for 1 and 2 threads|a moving goal re-solves|F_int approximation|invariants of a 1000-agent swarm'
 quick_exclude+='|D2: a full disk is exit 3|Resume after|Resume with other thread counts|Resume of compressed'
-quick_exclude+='|shape: the moon forms|shape: the morph ends|shape: the horse follows|shape: 1 and 2 threads'
+quick_exclude+='|D9: two runs never write|shape: the moon forms|shape: the morph ends|shape: the horse follows|shape: 1 and 2 threads'
 
 temporary_exclude=''
 

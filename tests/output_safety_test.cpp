@@ -169,7 +169,7 @@ TEST_CASE("D9: two runs never write one output at once", "[safety]") {
   TempDir dir;
   // a long first run
   const swarmsim_test::Child a = swarmsim_test::spawnChild(
-      {kExe, "run", kTiny, "--frames", "1000", "--set", "swarms[0].count=2000", "-o", "out.h5"}, dir.path(), "a");
+      {kExe, "run", kTiny, "--frames", "400", "--set", "swarms[0].count=1000", "-o", "out.h5"}, dir.path(), "a");
   REQUIRE(swarmsim_test::waitForFile(dir.file(".out.h5.part"), a.pid, 30000));
   // the second, without --force and with it: refused while the first holds the output
   auto r = runCli(tinyRun("out.h5"), dir);
@@ -188,7 +188,7 @@ TEST_CASE("D9: two runs never write one output at once", "[safety]") {
   CHECK(swarmsim_test::readText(dir.file("out.h5")) == "someone else's\n");
   CHECK(fs::exists(dir.file(".out.h5.part")));  // the run's work is kept
   // a foreign file is never replaced, even by --resume --force
-  const std::string again = "run " + shellQuote(kTiny) + " --frames 1000 --set 'swarms[0].count=2000' -o out.h5 --quiet";
+  const std::string again = "run " + shellQuote(kTiny) + " --frames 400 --set 'swarms[0].count=1000' -o out.h5 --quiet";
   r = runCli(again + " --resume --force", dir);
   CHECK(r.exitCode == 3);
   CHECK(swarmsim_test::readText(dir.file("out.h5")) == "someone else's\n");
