@@ -30,7 +30,7 @@ smooth weights from the distance to the bones).
 Files hold only a comment header, "v x y z" lines (4 decimals) and "f i j k"
 lines with 1-based indices; triangles are counter-clockwise seen from outside
 (normals point out). Needs Debian's python3-numpy and python3-skimage, hence
-/usr/bin/python3 (scripts/setup.sh installs them). The output is
+/usr/bin/python3 (the script installs them with apt when missing). The output is
 deterministic: the same bytes on every run.
 
 The check verifies, per mesh: every index is valid and every vertex used; no
@@ -51,8 +51,27 @@ import math
 import os
 import sys
 
-import numpy as np
-from skimage import measure
+import subprocess
+
+
+def _install_missing():
+    """Install Debian's python3-numpy and python3-skimage with apt when they are
+    missing (only this script needs them, so scripts/setup.sh does not)."""
+    cmd = ["apt-get", "install", "-y", "-qq", "--no-install-recommends", "python3-numpy", "python3-skimage"]
+    if os.geteuid() != 0:
+        cmd = ["sudo"] + cmd
+    print("make_shapes: installing python3-numpy python3-skimage", file=sys.stderr)
+    subprocess.run((["sudo"] if os.geteuid() != 0 else []) + ["apt-get", "update", "-qq"], check=True)
+    subprocess.run(cmd, check=True, env=dict(os.environ, DEBIAN_FRONTEND="noninteractive"))
+
+
+try:
+    import numpy as np
+    from skimage import measure
+except ImportError:
+    _install_missing()
+    import numpy as np
+    from skimage import measure
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 OUTDIR = os.path.normpath(os.path.join(HERE, "..", "data", "shapes"))
@@ -849,7 +868,7 @@ Regenerate them (byte-identical output) with
 and check them with `scripts/make_shapes.py --check` (each mesh closed, watertight, one piece
 of genus 0, oriented outward, no duplicate vertices or zero-area triangles, the intended size,
 the horse frames sharing their triangles, and the files equal to what the script writes).
-The script needs Debian's `python3-numpy` and `python3-skimage` (`scripts/setup.sh` installs
+The script needs Debian's `python3-numpy` and `python3-skimage` (the script installs
 them) and runs with `/usr/bin/python3`.
 
 Wavefront OBJ, triangles only, counter-clockwise seen from outside, z up, x forward for the
