@@ -57,13 +57,12 @@ import subprocess
 def _install_missing():
     """Install Debian's python3-numpy and python3-skimage with apt when they are
     missing (only this script needs them, so scripts/setup.sh does not)."""
-    cmd = ["apt-get", "install", "-y", "-qq", "--no-install-recommends", "python3-numpy", "python3-skimage"]
-    if os.geteuid() != 0:
-        cmd = ["sudo"] + cmd
+    sudo = ["sudo"] if os.geteuid() != 0 else []
     print("make_shapes: installing python3-numpy python3-skimage", file=sys.stderr)
-    subprocess.run((["sudo"] if os.geteuid() != 0 else []) + ["apt-get", "update", "-qq"], check=True)
-    subprocess.run(cmd, check=True, env=dict(os.environ, DEBIAN_FRONTEND="noninteractive"))
-
+    env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
+    subprocess.run(sudo + ["apt-get", "update", "-qq"], check=True, env=env)
+    subprocess.run(sudo + ["apt-get", "install", "-y", "-qq", "--no-install-recommends", "python3-numpy", "python3-skimage"],
+                   check=True, env=env)
 
 try:
     import numpy as np

@@ -175,7 +175,6 @@ class ShapeModel final : public Model {
     const std::size_t n = s.size();
     const double t = info.time;
     const float dt = static_cast<float>(world.dt);
-    const auto tStep = Clock::now();
 
     // the topology group of this time; entering one samples its mesh and assigns the insects to the samples
     std::int64_t g = -1;
@@ -196,7 +195,9 @@ class ShapeModel final : public Model {
     const float mdReach = md + 2.0f * static_cast<float>(p_.maxSpeed) * dt;  // movement within the step
     grid_.build(s.px.data(), s.py.data(), s.pz.data(), n, std::max({kh, mdReach, 1e-4f}));
     const auto& order = grid_.order();
-    for (auto* a : {&vx_, &vy_, &vz_, &fx_, &fy_, &fz_, &tx_, &ty_, &tz_, &nvx_, &nvy_, &nvz_}) a->resize(n);
+    for (auto* a : {&vx_, &vy_, &vz_, &fx_, &fy_, &fz_, &tx_, &ty_, &tz_, &nvx_, &nvy_, &nvz_, &tgx_, &tgy_, &tgz_}) {
+      a->resize(n);
+    }
     ids_.resize(n);
     err_.resize(n);
     speed_.resize(n);
@@ -253,6 +254,9 @@ class ShapeModel final : public Model {
         external += con.force(wCon);
         // F_dis (eq. 6-7): toward the insect's own sample point
         const Vec3 target = targetOf(ids_[k], keyA, keyB, f, rot, shift, pivot);
+        tgx_[k] = target.x();  // kept for the shape error after the move
+        tgy_[k] = target.y();
+        tgz_[k] = target.z();
         external += distanceForce(x, target, wDis, invRange);
       }
       const Vec3 force = alpha * internal + (1.0f - alpha) * external;
@@ -315,7 +319,7 @@ class ShapeModel final : public Model {
       next_.vz[k] = nvz_[k];
       next_.id[k] = ids_[k];
       speed_[k] = Vec3(nvx_[k], nvy_[k], nvz_[k]).norm();
-      if (shaped) err_[k] = (targetOf(ids_[k], keyA, keyB, f, rot, shift, pivot) - x).norm();
+      if (shaped) err_[k] = (Vec3(tgx_[k], tgy_[k], tgz_[k]) - x).norm();
     });
     std::size_t moved = 0;
     for (std::size_t k = 0; k < n; ++k) moved += movedFlag_[k];
@@ -329,7 +333,6 @@ class ShapeModel final : public Model {
     } else {
       ++timedSteps_;
     }
-    (void)tStep;
   }
 
  private:
@@ -435,6 +438,7 @@ class ShapeModel final : public Model {
   std::vector<std::uint32_t> assign_;       // insect id -> sample
   // per step, in grid order
   std::vector<float> vx_, vy_, vz_, fx_, fy_, fz_, tx_, ty_, tz_, nvx_, nvy_, nvz_;
+  std::vector<float> tgx_, tgy_, tgz_;  // each insect's sample point this step
   std::vector<std::uint32_t> ids_;
   std::vector<std::uint8_t> movedFlag_;
   std::vector<float> err_, speed_, sortScratch_;
