@@ -89,9 +89,10 @@ TEST_CASE("The thread governor yields a CPU another process holds", "[threads]")
   }
   swarmsim::setThreadAdaptation(true);
   swarmsim::requestThreads(2);
+  CHECK_FALSE(swarmsim::threadsSettled());  // not looked at the machine yet: bench would keep warming up
   // steps of many short parallel loops (as the field model's at a few thousand insects): a thread that
   // shares its CPU with the hog holds every barrier up, so one thread steps faster, and the governor,
-  // measuring both teams, must settle on it (machine seen busy after 0.5 s, then 0.25 s per team)
+  // measuring both teams, must settle on it (machine seen busy after 0.1 s, then 0.25 s per team)
   std::vector<float> data(4096, 1.0f);
   const auto t0 = std::chrono::steady_clock::now();
   while (std::chrono::steady_clock::now() - t0 < std::chrono::milliseconds(2500)) {
@@ -101,9 +102,11 @@ TEST_CASE("The thread governor yields a CPU another process holds", "[threads]")
     swarmsim::threadTick();
   }
   const int busy = swarmsim::threadsInUse();
+  const bool settled = swarmsim::threadsSettled();
   kill(hog, SIGKILL);
   waitpid(hog, nullptr, 0);
   CHECK(busy == 1);
+  CHECK(settled);  // both teams measured, the choice held for 5 s
   CHECK(swarmsim::threadCount() == busy);
   // --fixed-threads: the requested count whatever the machine does
   swarmsim::setThreadAdaptation(false);

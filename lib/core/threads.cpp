@@ -93,7 +93,11 @@ struct Governor {
   enum class Phase { kSettled, kProbeFull, kProbeFree };
   Phase phase = Phase::kSettled;
   int alternative = 1;  // the team that fits the CPUs others leave free
-  double phaseStart = 0.0, fullRate = 0.0, holdUntil = 0.0;
+  double phaseStart = 0.0, freeRate = 0.0, holdUntil = 0.0, hold = 5.0;
+  int lastAlternative = -1, lastChoice = -1;
+  // the machine is looked at 0.1 s after a team is requested, then every 0.5 s
+  double lookInterval = 0.1;
+  bool looked = false;  // since the team was requested
   long long phaseTicks = 0;
   unsigned long long mask[16] = {};  // up to 1,024 CPUs
 
@@ -154,17 +158,23 @@ struct Governor {
     setThreadCount(n);
   }
 
-  // Idle machine: the full team. Busy: whichever of the full team and the
-  // free-CPU team steps faster, measured over 0.25 s each (a team that shares
-  // CPUs with other work gets more CPU time but waits at every barrier; which
-  // wins depends on the work per parallel loop), kept for 5 s, then measured
-  // again.
+  // Idle machine: the full team. Busy: whichever of the free-CPU team and the
+  // full team steps faster (a team that shares CPUs with other work gets more
+  // CPU time but waits at every barrier; which wins depends on the work per
+  // parallel loop), measured over 0.25 s each, the free team first, and kept
+  // for 5 s, then measured again; each time the same team wins the hold
+  // doubles, up to 40 s.
   void decide(double now) {
     if (!adapt || !gAdapt) return use(max);
     alternative = freeTeam();
+    if (alternative != lastAlternative) {  // the load changed: measure again
+      lastAlternative = alternative;
+      holdUntil = 0.0;
+      hold = 5.0;
+      phase = Phase::kSettled;
+    }
     if (alternative >= max) {
       phase = Phase::kSettled;
-      holdUntil = 0.0;
       if (current != max) use(max);
       return;
     }
@@ -174,21 +184,24 @@ struct Governor {
     switch (phase) {
       case Phase::kSettled:
         if (now < holdUntil) return;
-        phase = Phase::kProbeFull;
-        use(max);
-        break;
-      case Phase::kProbeFull:
-        if (!measured) return;
-        fullRate = static_cast<double>(steps) / elapsed;
         phase = Phase::kProbeFree;
         use(alternative);
         break;
-      case Phase::kProbeFree: {
+      case Phase::kProbeFree:
         if (!measured) return;
-        const double freeRate = static_cast<double>(steps) / elapsed;
-        use(freeRate > 1.03 * fullRate ? alternative : max);
+        freeRate = static_cast<double>(steps) / elapsed;
+        phase = Phase::kProbeFull;
+        use(max);
+        break;
+      case Phase::kProbeFull: {
+        if (!measured) return;
+        const double fullRate = static_cast<double>(steps) / elapsed;
+        const int chosen = fullRate > 1.03 * freeRate ? max : alternative;
+        hold = chosen == lastChoice ? std::min(2.0 * hold, 40.0) : 5.0;
+        lastChoice = chosen;
+        use(chosen);
         phase = Phase::kSettled;
-        holdUntil = now + 5.0;
+        holdUntil = now + hold;
         return;
       }
     }
@@ -210,7 +223,21 @@ void requestThreads(int n) {
   g.max = std::max(1, n);
   g.phase = Governor::Phase::kSettled;
   g.holdUntil = 0.0;
-  g.use(g.max);  // measured again if the machine is busy
+  g.hold = 5.0;
+  g.lastAlternative = g.lastChoice = -1;
+  g.use(g.adapt && gAdapt ? g.freeTeam() : g.max);  // the machine as last seen (idle: the full team), looked at again soon
+  // a fresh look at the machine soon
+  g.looked = false;
+  g.lookInterval = 0.1;
+  g.calls = 0;
+  g.stride = 1;
+  if (g.adapt && g.sample(g.lastBusy, g.lastOwn)) g.lastWall = wallNow();
+}
+
+bool threadsSettled() {
+  Governor& g = governor();
+  if (!g.adapt || !gAdapt || g.max <= 1) return true;
+  return g.looked && g.phase == Governor::Phase::kSettled;
 }
 
 void threadTick() {
@@ -225,9 +252,11 @@ void threadTick() {
   if (sinceLook < 0.001) g.stride = std::min(g.stride * 2, 1L << 20);
   if (sinceLook > 0.02) g.stride = std::max(g.stride / 2, 1L);
   const double wall = now - g.lastWall;
-  if (wall >= 0.5) {
+  if (wall >= g.lookInterval) {
     double busy = 0.0, own = 0.0;
     if (g.sample(busy, own)) {
+      g.looked = true;
+      g.lookInterval = 0.5;
       // CPUs that other processes kept busy over the interval
       g.others = std::max(0.0, ((busy - g.lastBusy) - (own - g.lastOwn)) / wall);
       g.lastWall = now;
