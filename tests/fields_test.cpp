@@ -242,6 +242,65 @@ TEST_CASE("Curl noise flows along a spherical obstacle, not into it", "[fields]"
   CHECK(free > 0.4);
 }
 
+TEST_CASE("Perlin noise's analytic gradient matches its differences; the exact curl is divergence-free", "[fields]") {
+  const PerlinNoise3 a(11);
+  Lcg rng{5};
+  double worst = 0.0;
+  for (int n = 0; n < 20000; ++n) {
+    const Vec3d p = rng.point(-40.0, 40.0);
+    Vec3d g;
+    const double v = a.withGradient(p, g);
+    REQUIRE(v == a(p));  // the same value, bit for bit
+    // fourth-order central differences of the value, step 1e-4 lattice cells (the noise is C2 across
+    // lattice cells, so a stencil that straddles a cell face errs by O(h^2))
+    const double h = 1e-4;
+    for (int c = 0; c < 3; ++c) {
+      Vec3d e = Vec3d::Zero();
+      e[c] = h;
+      const double fd = (-a(p + 2 * e) + 8 * a(p + e) - 8 * a(p - e) + a(p - 2 * e)) / (12 * h);
+      worst = std::max(worst, std::fabs(fd - g[c]));
+    }
+  }
+  CHECK(worst < 1e-6);
+  // at a lattice point the value is 0 and the gradient is the corner's (normalised) gradient vector
+  Vec3d g0;
+  CHECK(a.withGradient(Vec3d(3, -2, 5), g0) == 0.0);
+  CHECK(std::fabs(g0.norm() - std::sqrt(2.0) / 1.0364) < 1e-12);
+
+  // curl of the potential: divergence (by differences of the exact curl) vanishes
+  NoiseParams np;
+  np.scale = 1.0;
+  np.unit = 0.32;
+  np.gain = 0.39;
+  const swarmsim::NoisePotential pot(np);
+  double maxDiv = 0.0, maxCurl = 0.0, maxDiff = 0.0;
+  for (int n = 0; n < 2000; ++n) {
+    const Vec3d p = rng.point(-10.0, 10.0);
+    const double h = 1e-4;
+    double div = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      Vec3d e = Vec3d::Zero();
+      e[c] = h;
+      div += (pot.curlRaw(p + e)[c] - pot.curlRaw(p - e)[c]) / (2 * h);
+    }
+    maxDiv = std::max(maxDiv, std::fabs(div));
+    const Vec3d curl = pot.curlRaw(p);
+    maxCurl = std::max(maxCurl, curl.norm());
+    // against the curl of the potential by central differences
+    Vec3d d[3];
+    for (int c = 0; c < 3; ++c) {
+      Vec3d e = Vec3d::Zero();
+      e[c] = h;
+      d[c] = (pot.raw(p + e) - pot.raw(p - e)) / (2 * h);
+    }
+    const Vec3d fd(d[1].z() - d[2].y(), d[2].x() - d[0].z(), d[0].y() - d[1].x());
+    maxDiff = std::max(maxDiff, (fd - curl).norm());
+  }
+  CHECK(maxCurl > 0.3);        // of the order of the gain
+  CHECK(maxDiv < 1e-5);        // the divergence of a curl, up to the differences' error
+  CHECK(maxDiff < 1e-5 * 0.39 / 0.32 * 100);
+}
+
 TEST_CASE("Plain Perlin velocity is gain times the three noises", "[fields]") {
   const GridSpec spec = GridSpec::covering(Vec3d(0, 0, 0), Vec3d(4, 4, 4), {8, 8, 8});
   NoiseParams p;

@@ -2,13 +2,18 @@
 // hand-worked values, F_dis's shape (zero at the target, toward it everywhere in
 // range), the B-spline path against its closed form.
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <cmath>
+#include <string>
+#include <utility>
 #include <random>
 #include <stdexcept>
 #include <vector>
 
 #include "models/shape/path.hpp"
 #include "models/shape/shape.hpp"
+#include "io/scenario.hpp"
+#include "run.hpp"
 
 using Catch::Detail::Approx;
 using swarmsim::Vec3;
@@ -109,5 +114,78 @@ TEST_CASE("shape: cubic B-spline path, arc length", "[shape]") {
   }
   SECTION("fewer control points than a cubic needs") {
     CHECK_THROWS_AS(swarmsim::BSplinePath({Vec3d(0, 0, 0), Vec3d(1, 0, 0), Vec3d(2, 0, 0)}), std::invalid_argument);
+  }
+}
+
+TEST_CASE("shape: F_int (eq. 2-3) over given neighbours, by hand", "[shape]") {
+  // zones: rep [0, 0.5), ali [0.5, 2), att [2, 4]; weights 1, 2, 3
+  swarmsim::ZonalSum z(0.5f, 2.0f, 4.0f, 1.0f, 2.0f, 3.0f);
+  z.add(0.3f, 0.0f, 0.0f, 0.09f, 1.0f, 1.0f, 0.0f);    // rep: -x
+  z.add(0.0f, 1.0f, 0.0f, 1.0f, 0.0f, 0.0f, 2.0f);     // ali: toward dv, +z
+  z.add(0.0f, -1.5f, 0.0f, 2.25f, 3.0f, 4.0f, 0.0f);   // ali: (0.6, 0.8, 0)
+  z.add(0.0f, 0.0f, 3.0f, 9.0f, 0.0f, 0.0f, 0.0f);     // att: +z
+  z.add(5.0f, 0.0f, 0.0f, 25.0f, 0.0f, 0.0f, 0.0f);    // beyond r_att: nothing
+  z.add(0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f);     // at the insect's position: counts in rep, adds 0
+  const Vec3 f = z.force();
+  // rep: 1 / 2 * (-1, 0, 0); ali: 2 / 2 * ((0, 0, 1) + (0.6, 0.8, 0)); att: 3 / 1 * (0, 0, 1)
+  CHECK(f.x() == Approx(-0.5 + 0.6));
+  CHECK(f.y() == Approx(0.8));
+  CHECK(f.z() == Approx(1.0 + 3.0));
+  CHECK(z.count[0] == 2);
+  CHECK(z.count[1] == 2);
+  CHECK(z.count[2] == 1);
+}
+
+TEST_CASE("shape: F_int acts over each insect's K nearest neighbours within r_att", "[shape]") {
+  // 400 insects in a 6 m box, no noise, no target yet (its key is at 1 s), alpha 1, no MDE, no speed limit
+  // to speak of: one step changes each velocity by exactly F_int dt, which the test recomputes by brute force
+  const std::string mesh = std::string(SWARMSIM_SOURCE_DIR) + "/data/shapes/sphere.obj";
+  for (const int K : {1, 6, 40}) {
+    swarmsim::Json j = {
+        {"name", "knn"}, {"seed", 5u}, {"dt", 0.01}, {"frames", 200u}, {"steps_per_frame", 1u},
+        {"domain", {{"min", {-10, -10, -10}}, {"max", {10, 10, 10}}}},
+        {"swarms",
+         {{{"name", "flies"}, {"count", 400u}, {"model", "shape"}, {"initial_speed", 0.5},
+           {"spawn", {{"type", "box"}, {"min", {-3, -3, -3}}, {"max", {3, 3, 3}}}},
+           {"params",
+            {{"alpha", 1.0}, {"neighbours", static_cast<unsigned>(K)}, {"r_rep", 0.3}, {"r_ali", 0.8}, {"r_att", 1.5},
+             {"w_rep", 1.0}, {"w_ali", 2.0}, {"w_att", 3.0}, {"noise", {{"eta", 0.0}}}, {"min_distance", 0.0},
+             {"max_speed", 1000.0}, {"targets", {{{"time", 1.0}, {"file", mesh}}}}}}}}}};
+    const swarmsim::Scenario sc = swarmsim::parseScenario(j, "knn.json");
+    swarmsim::Simulation sim(sc);
+    const swarmsim::SwarmState before = sim.swarms()[0];
+    sim.step();
+    const swarmsim::SwarmState& after = sim.swarms()[0];
+    const std::size_t n = before.size();
+    std::vector<Vec3> x(n), v(n), v1(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      x[before.id[i]] = Vec3(before.px[i], before.py[i], before.pz[i]);
+      v[before.id[i]] = Vec3(before.vx[i], before.vy[i], before.vz[i]);
+      v1[after.id[i]] = Vec3(after.vx[i], after.vy[i], after.vz[i]);
+    }
+    int checked = 0, withFew = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      std::vector<std::pair<float, std::size_t>> near;
+      for (std::size_t o = 0; o < n; ++o) {
+        if (o == i) continue;
+        const Vec3 d = x[o] - x[i];
+        const float d2 = d.x() * d.x() + d.y() * d.y() + d.z() * d.z();
+        if (d2 <= 1.5f * 1.5f) near.emplace_back(d2, o);
+      }
+      std::sort(near.begin(), near.end());
+      if (near.size() < static_cast<std::size_t>(K)) ++withFew;
+      near.resize(std::min(near.size(), static_cast<std::size_t>(K)));
+      swarmsim::ZonalSum z(0.3f, 0.8f, 1.5f, 1.0f, 2.0f, 3.0f);
+      for (const auto& [d2, o] : near) {
+        const Vec3 d = x[o] - x[i], dv = v[o] - v[i];
+        z.add(d.x(), d.y(), d.z(), d2, dv.x(), dv.y(), dv.z());
+      }
+      const Vec3 expected = z.force();
+      const Vec3 got = (v1[i] - v[i]) / 0.01f;
+      CHECK((got - expected).norm() <= 1e-3f * std::max(1.0f, expected.norm()));
+      ++checked;
+    }
+    CHECK(checked == 400);
+    if (K == 40) CHECK(withFew > 100);  // some insects have fewer than K within r_att: all of those count
   }
 }

@@ -92,7 +92,7 @@ TEST_CASE("The thread governor yields a CPU another process holds", "[threads]")
   CHECK_FALSE(swarmsim::threadsSettled());  // not looked at the machine yet: bench would keep warming up
   // steps of many short parallel loops (as the field model's at a few thousand insects): a thread that
   // shares its CPU with the hog holds every barrier up, so one thread steps faster, and the governor,
-  // measuring both teams, must settle on it (machine seen busy after 0.1 s, then 0.25 s per team)
+  // measuring both teams, must settle on it (machine seen busy after 0.1 s, then 4 windows of 0.2 s)
   std::vector<float> data(4096, 1.0f);
   const auto t0 = std::chrono::steady_clock::now();
   while (std::chrono::steady_clock::now() - t0 < std::chrono::milliseconds(2500)) {

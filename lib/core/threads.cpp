@@ -90,10 +90,13 @@ struct Governor {
   long calls = 0, stride = 1;
   long long ticks = 0;  // steps so far
   // on a busy machine: which of two team sizes steps faster, measured
-  enum class Phase { kSettled, kProbeFull, kProbeFree };
+  enum class Phase { kSettled, kProbing };
   Phase phase = Phase::kSettled;
   int alternative = 1;  // the team that fits the CPUs others leave free
-  double phaseStart = 0.0, freeRate = 0.0, holdUntil = 0.0, hold = 5.0;
+  double phaseStart = 0.0, holdUntil = 0.0, hold = 5.0;
+  int window = 0;  // of the measurement
+  long long freeSteps = 0, fullSteps = 0;
+  double freeTime = 0.0, fullTime = 0.0;
   int lastAlternative = -1, lastChoice = -1;
   // the machine is looked at 0.1 s after a team is requested, then every 0.5 s
   double lookInterval = 0.1;
@@ -161,9 +164,12 @@ struct Governor {
   // Idle machine: the full team. Busy: whichever of the free-CPU team and the
   // full team steps faster (a team that shares CPUs with other work gets more
   // CPU time but waits at every barrier; which wins depends on the work per
-  // parallel loop), measured over 0.25 s each, the free team first, and kept
-  // for 5 s, then measured again; each time the same team wins the hold
-  // doubles, up to 40 s.
+  // parallel loop), measured in four windows of 0.2 s in the order free, full,
+  // full, free (so a load that drifts during the measurement favours neither),
+  // and kept for 5 s, then measured again; each time the same team wins the
+  // hold doubles, up to 40 s.
+  static constexpr int kWindows = 4;
+  static bool windowIsFull(int w) { return w == 1 || w == 2; }
   void decide(double now) {
     if (!adapt || !gAdapt) return use(max);
     alternative = freeTeam();
@@ -180,22 +186,19 @@ struct Governor {
     }
     const double elapsed = now - phaseStart;
     const long long steps = ticks - phaseTicks;
-    const bool measured = elapsed >= 0.25 && steps >= 2;
-    switch (phase) {
-      case Phase::kSettled:
-        if (now < holdUntil) return;
-        phase = Phase::kProbeFree;
-        use(alternative);
-        break;
-      case Phase::kProbeFree:
-        if (!measured) return;
-        freeRate = static_cast<double>(steps) / elapsed;
-        phase = Phase::kProbeFull;
-        use(max);
-        break;
-      case Phase::kProbeFull: {
-        if (!measured) return;
-        const double fullRate = static_cast<double>(steps) / elapsed;
+    if (phase == Phase::kSettled) {
+      if (now < holdUntil) return;
+      phase = Phase::kProbing;
+      window = 0;
+      freeSteps = fullSteps = 0;
+      freeTime = fullTime = 0.0;
+    } else {
+      if (!(elapsed >= 0.2 && steps >= 2)) return;
+      (windowIsFull(window) ? fullSteps : freeSteps) += steps;
+      (windowIsFull(window) ? fullTime : freeTime) += elapsed;
+      if (++window == kWindows) {
+        const double freeRate = static_cast<double>(freeSteps) / freeTime;
+        const double fullRate = static_cast<double>(fullSteps) / fullTime;
         const int chosen = fullRate > 1.03 * freeRate ? max : alternative;
         hold = chosen == lastChoice ? std::min(2.0 * hold, 40.0) : 5.0;
         lastChoice = chosen;
@@ -205,6 +208,7 @@ struct Governor {
         return;
       }
     }
+    use(windowIsFull(window) ? max : alternative);
     phaseStart = now;
     phaseTicks = ticks;
   }

@@ -8,7 +8,8 @@
 //     those CPUs (/proc/stat, without steal) with this process's own CPU time.
 //     On an idle machine it uses the requested team. When other processes hold
 //     some of the CPUs it measures the steps per second of a team that fits the
-//     CPUs left free and of the full team (0.25 s each), keeps the faster for
+//     CPUs left free and of the full team (two windows of 0.2 s each, in the
+//     order free, full, full, free), keeps the faster for
 //     5 s, then measures again (the hold doubles, up to 40 s, while the same
 //     team keeps winning). Results do not
 //     depend on the number of threads, so this changes only the speed.

@@ -73,6 +73,14 @@ Vec3d NoisePotential::noise(const Vec3d& x) const {
   return {perlin_[0](u), perlin_[1](u), perlin_[2](u)};
 }
 
+Vec3d NoisePotential::curlRaw(const Vec3d& x) const {
+  const Vec3d u = x * frequency_;
+  Vec3d g[3];  // g[c] = ∇ P_c in lattice units
+  for (int c = 0; c < 3; ++c) perlin_[c].withGradient(u, g[c]);
+  // ∂P_c/∂x_a = potentialFactor · frequency · ∂P_c/∂u_a = gain · ∂P_c/∂u_a
+  return Vec3d(g[2].y() - g[1].z(), g[0].z() - g[2].x(), g[1].x() - g[0].y()) * params_.gain;
+}
+
 Vec3d NoisePotential::operator()(const Vec3d& x, const Grid3<float>* sdf) const {
   const Vec3d P = raw(x);
   if (!sdf) return P;

@@ -48,6 +48,9 @@ class NoisePotential {
   Vec3d raw(const Vec3d& x) const { return noise(x) * potentialFactor_; }
   // N(x), blended toward the obstacles of `sdf` (sampled trilinearly; null = no obstacles)
   Vec3d operator()(const Vec3d& x, const Grid3<float>* sdf) const;
+  // ∇ × P(x), exact (from the noises' analytic gradients): the curl where the blend is 1
+  Vec3d curlRaw(const Vec3d& x) const;
+  double d0() const { return params_.d0; }
 
  private:
   NoiseParams params_;

@@ -69,4 +69,54 @@ double PerlinNoise3::operator()(const Vec3d& p) const {
   return std::clamp(value, -1.0, 1.0);  // a no-op but for rounding
 }
 
+double PerlinNoise3::withGradient(const Vec3d& p, Vec3d& grad) const {
+  const double fx = std::floor(p.x()), fy = std::floor(p.y()), fz = std::floor(p.z());
+  const int X = static_cast<int>(static_cast<long long>(fx) & 255);
+  const int Y = static_cast<int>(static_cast<long long>(fy) & 255);
+  const int Z = static_cast<int>(static_cast<long long>(fz) & 255);
+  const double x = p.x() - fx, y = p.y() - fy, z = p.z() - fz;
+  const double u = fade(x), v = fade(y), w = fade(z);
+  const auto dfade = [](double t) { return 30.0 * t * t * (t - 1.0) * (t - 1.0); };
+  const double du = dfade(x), dv = dfade(y), dw = dfade(z);
+
+  const int a = perm_[X] + Y, aa = perm_[a] + Z, ab = perm_[a + 1] + Z;
+  const int b = perm_[X + 1] + Y, ba = perm_[b] + Z, bb = perm_[b + 1] + Z;
+  // corner gradients G and values g = G · (t − c), corners named by (c_x, c_y, c_z)
+  const double* G000 = kGrad[perm_[aa] & 15];
+  const double* G100 = kGrad[perm_[ba] & 15];
+  const double* G010 = kGrad[perm_[ab] & 15];
+  const double* G110 = kGrad[perm_[bb] & 15];
+  const double* G001 = kGrad[perm_[aa + 1] & 15];
+  const double* G101 = kGrad[perm_[ba + 1] & 15];
+  const double* G011 = kGrad[perm_[ab + 1] & 15];
+  const double* G111 = kGrad[perm_[bb + 1] & 15];
+  const auto dot = [](const double* g, double tx, double ty, double tz) { return g[0] * tx + g[1] * ty + g[2] * tz; };
+  const double g000 = dot(G000, x, y, z), g100 = dot(G100, x - 1, y, z);
+  const double g010 = dot(G010, x, y - 1, z), g110 = dot(G110, x - 1, y - 1, z);
+  const double g001 = dot(G001, x, y, z - 1), g101 = dot(G101, x - 1, y, z - 1);
+  const double g011 = dot(G011, x, y - 1, z - 1), g111 = dot(G111, x - 1, y - 1, z - 1);
+
+  // the same blend as operator() (so the values agree bit for bit)
+  const double x00 = lerp(g000, g100, u), x10 = lerp(g010, g110, u);
+  const double x01 = lerp(g001, g101, u), x11 = lerp(g011, g111, u);
+  const double y0 = lerp(x00, x10, v), y1 = lerp(x01, x11, v);
+  const double value = lerp(y0, y1, w) * kNormalize;
+
+  // d/dt of the blend: the weights' derivatives times the corner values, plus
+  // the weights times the corner gradients
+  const double dx00 = g100 - g000, dx10 = g110 - g010, dx01 = g101 - g001, dx11 = g111 - g011;
+  const double dy0 = x10 - x00, dy1 = x11 - x01;
+  const double dValue[3] = {
+      du * lerp(lerp(dx00, dx10, v), lerp(dx01, dx11, v), w),
+      dv * lerp(dy0, dy1, w),
+      dw * (y1 - y0),
+  };
+  for (int c = 0; c < 3; ++c) {
+    const double l00 = lerp(G000[c], G100[c], u), l10 = lerp(G010[c], G110[c], u);
+    const double l01 = lerp(G001[c], G101[c], u), l11 = lerp(G011[c], G111[c], u);
+    grad[c] = (dValue[c] + lerp(lerp(l00, l10, v), lerp(l01, l11, v), w)) * kNormalize;
+  }
+  return std::clamp(value, -1.0, 1.0);
+}
+
 }  // namespace swarmsim

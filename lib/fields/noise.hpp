@@ -28,6 +28,9 @@ class PerlinNoise3 {
 
   // noise value at p (lattice units), in [−1, 1]
   double operator()(const Vec3d& p) const;
+  // the value as operator() gives it, and its exact gradient (per lattice unit)
+  // in `grad`: the derivative of the interpolation above, fade'(t) = 30 t^2 (t − 1)^2
+  double withGradient(const Vec3d& p, Vec3d& grad) const;
 
  private:
   std::array<std::uint8_t, 512> perm_{};  // the shuffled 0..255 twice, so perm_[a + b] needs no wrap

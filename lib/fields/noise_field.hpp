@@ -5,10 +5,12 @@
 // When it fits (at most 256 cells per axis and `maxCells` cells) the field is
 // precomputed on a grid with about 3 samples per Perlin lattice cell and
 // sampled trilinearly; otherwise (fine noise in a large domain) it is evaluated
-// at each point: Perlin directly, or the curl of the blended potential by
-// central differences of step 0.1 of a grid cell. Curl noise is blended toward
-// the obstacles and the domain's walls (curl_noise.hpp, eq. 2-3 of wang2014),
-// so it flows along them rather than into them.
+// at each point: Perlin directly, or the curl exactly from the noises' analytic
+// gradients, except within the blend's distance of a boundary, where it is the
+// curl of the blended potential by central differences of step 0.1 of a grid
+// cell. Curl noise is blended toward the obstacles and the domain's walls
+// (curl_noise.hpp, eq. 2-3 of wang2014), so it flows along them rather than
+// into them.
 #include <array>
 #include <memory>
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstring>
 #include <sstream>
 #include <cmath>
 #include <numeric>
@@ -29,6 +30,21 @@ using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 constexpr double kMaxForce = 1e6;  // m/s^2: weights of the forces
+
+// a neighbour as one sortable key: squared distance (a non-negative float's bits order as the float), then
+// its sorted position
+std::uint64_t neighbourKey(float d2, std::uint32_t j) {
+  std::uint32_t bits;
+  std::memcpy(&bits, &d2, sizeof bits);
+  return (static_cast<std::uint64_t>(bits) << 32) | j;
+}
+
+float keyDistance2(std::uint64_t key) {
+  const auto bits = static_cast<std::uint32_t>(key >> 32);
+  float d2;
+  std::memcpy(&d2, &bits, sizeof d2);
+  return d2;
+}
 
 bool sameTopology(const TriangleMesh& a, const TriangleMesh& b) {
   return a.vertices.size() == b.vertices.size() && a.triangles == b.triangles;
@@ -145,6 +161,8 @@ class ShapeModel final : public Model {
     info["ms_forces"] = 1e3 * tForces_ / steps;
     info["ms_mde"] = 1e3 * tMde_ / steps;
     info["theta"] = p_.theta;
+    info["neighbours"] = p_.neighbours;
+    info["max_speed"] = p_.maxSpeed;
     return info;
   }
 
@@ -156,6 +174,7 @@ class ShapeModel final : public Model {
     out.putVector(assign_);
     out.put<std::uint64_t>(frameMoved_);
     out.put<std::uint64_t>(frameAgentSteps_);
+    out.put<float>(cellHint_);  // the grid's cells, so the order of sums, depend on it
   }
 
   void loadState(StateIn& in, const World&) override {
@@ -163,6 +182,8 @@ class ShapeModel final : public Model {
     std::vector<std::uint32_t> assign = in.getVector<std::uint32_t>();
     frameMoved_ = static_cast<std::size_t>(in.get<std::uint64_t>());
     frameAgentSteps_ = static_cast<std::size_t>(in.get<std::uint64_t>());
+    cellHint_ = in.get<float>();
+    if (!(cellHint_ >= 0.0f && cellHint_ <= static_cast<float>(p_.rAtt))) throw std::runtime_error("shape checkpoint: bad cell");
     if (g < -1 || g >= static_cast<std::int64_t>(groupStart_.size())) throw std::runtime_error("shape checkpoint: bad group");
     if (g >= 0) {
       prepareGroup(static_cast<std::size_t>(g), assign.size());
@@ -193,7 +214,9 @@ class ShapeModel final : public Model {
     const float kh = static_cast<float>(p_.k * spacing_);
     const float md = static_cast<float>(p_.minDistance);
     const float mdReach = md + 2.0f * static_cast<float>(p_.maxSpeed) * dt;  // movement within the step
-    grid_.build(s.px.data(), s.py.data(), s.pz.data(), n, std::max({kh, mdReach, 1e-4f}));
+    // cells of at least k h (F_con), the MDE reach and (nearest-neighbour F_int) the K-th neighbour's distance
+    // of half of the insects last step, so that most searches visit 27 cells
+    grid_.build(s.px.data(), s.py.data(), s.pz.data(), n, std::max({kh, mdReach, cellHint_, 1e-4f}));
     const auto& order = grid_.order();
     for (auto* a : {&vx_, &vy_, &vz_, &fx_, &fy_, &fz_, &tx_, &ty_, &tz_, &nvx_, &nvy_, &nvz_, &tgx_, &tgy_, &tgz_}) {
       a->resize(n);
@@ -209,17 +232,21 @@ class ShapeModel final : public Model {
       ids_[k] = s.id[i];
     });
 
-    // F_int (eq. 2-3): the zonal force, with the far field approximated
+    // F_int (eq. 2-3): over the nearest neighbours (below, with F_con), or over every insect within r_att
+    // with the far field approximated
     auto t0 = Clock::now();
-    ZoneParams zones;
-    zones.rRep = static_cast<float>(p_.rRep);
-    zones.rAli = static_cast<float>(p_.rAli);
-    zones.rAtt = static_cast<float>(p_.rAtt);
-    zones.lambdaRep = static_cast<float>(p_.wRep);
-    zones.lambdaAli = static_cast<float>(p_.wAli);
-    zones.lambdaAtt = static_cast<float>(p_.wAtt);
-    forces_.compute(grid_, vx_.data(), vy_.data(), vz_.data(), zones, static_cast<float>(p_.theta), fx_.data(),
-                    fy_.data(), fz_.data());
+    const bool nearest = p_.neighbours > 0;
+    if (!nearest) {
+      ZoneParams zones;
+      zones.rRep = static_cast<float>(p_.rRep);
+      zones.rAli = static_cast<float>(p_.rAli);
+      zones.rAtt = static_cast<float>(p_.rAtt);
+      zones.lambdaRep = static_cast<float>(p_.wRep);
+      zones.lambdaAli = static_cast<float>(p_.wAli);
+      zones.lambdaAtt = static_cast<float>(p_.wAtt);
+      forces_.compute(grid_, vx_.data(), vy_.data(), vz_.data(), zones, static_cast<float>(p_.theta), fx_.data(),
+                      fy_.data(), fz_.data());
+    }
     tInteraction_ += since(t0);
 
     // the targets now: keyframe interpolation inside the group, then the path
@@ -239,18 +266,53 @@ class ShapeModel final : public Model {
     const float* sy = grid_.sortedY().data();
     const float* sz = grid_.sortedZ().data();
     const bool obstacles = clearance_.any();
+    const float searchR = std::max({kh, mdReach, cellHint_, 1e-4f});  // the grid's cell: one 27-cell block
+    const float rAtt = static_cast<float>(p_.rAtt);
+    const auto K = static_cast<std::size_t>(std::max(0, p_.neighbours));
+    const float reachSlack = 2.0f * vmax * dt;  // the K-th neighbour's distance changes by at most this in a step
+    if (nearest && reach_.size() != n) reach_.assign(n, 0.0f);
+    if (keys_.size() < static_cast<std::size_t>(threadCount())) keys_.resize(static_cast<std::size_t>(threadCount()));
 
-    parallelFor(n, [&](std::size_t k) {
+    const ZonalSum zones(static_cast<float>(p_.rRep), static_cast<float>(p_.rAli), rAtt, static_cast<float>(p_.wRep),
+                         static_cast<float>(p_.wAli), static_cast<float>(p_.wAtt));
+    // F_int over the K nearest within r_att of insect k, given the keys of every insect within radius r of it
+    // (r >= the grid's cell >= k h): when they are fewer than K the radius doubles (up to r_att). The K are
+    // sorted, so neither the radius nor the candidates' order changes the result.
+    const auto nearestForce = [&](std::size_t k, std::vector<std::uint64_t>& keys, float r) -> Vec3 {
+      const Vec3 x(sx[k], sy[k], sz[k]);
+      const std::uint32_t id = ids_[k];
+      if (keys.size() < K && r < rAtt) {
+        r = std::max(r, std::min(rAtt, 1.1f * reach_[id] + reachSlack));  // from last step's K-th distance
+        for (;;) {
+          keys.clear();
+          grid_.forEachNeighbor(x.x(), x.y(), x.z(), r, [&](std::uint32_t j, float, float, float, float d2) {
+            if (j != k && d2 <= rAtt * rAtt) keys.push_back(neighbourKey(d2, j));
+          });
+          if (keys.size() >= K || r >= rAtt) break;
+          r = std::min(2.0f * r, rAtt);
+        }
+      }
+      if (keys.size() > K) std::nth_element(keys.begin(), keys.begin() + static_cast<std::ptrdiff_t>(K), keys.end());
+      const std::size_t m = std::min(K, keys.size());
+      std::sort(keys.begin(), keys.begin() + static_cast<std::ptrdiff_t>(m));
+      reach_[id] = m == K ? std::sqrt(keyDistance2(keys[m - 1])) : rAtt;
+      ZonalSum zonal = zones;
+      for (std::size_t q = 0; q < m; ++q) {
+        const auto j = static_cast<std::uint32_t>(keys[q]);
+        const float dx = sx[j] - x.x(), dy = sy[j] - x.y(), dz = sz[j] - x.z();
+        zonal.add(dx, dy, dz, dx * dx + dy * dy + dz * dz, vx_[j] - vx_[k], vy_[j] - vy_[k], vz_[j] - vz_[k]);
+      }
+      return zonal.force();
+    };
+
+    // the rest of insect k's step, given F_int and F_con's sum
+    const auto insect = [&](std::size_t k, const Vec3& fInt, const ShapeConstraintSum& con) {
       const Vec3 x(sx[k], sy[k], sz[k]);
       Vec3 v(vx_[k], vy_[k], vz_[k]);
-      const Vec3 internal = Vec3(fx_[k], fy_[k], fz_[k]) + noise_(x);
+      const Vec3 internal = fInt + noise_(x);
       Vec3 external = Vec3::Zero();
       if (shaped) {
         // F_con (eq. 5): spread from the insects within the Manhattan threshold, Gaussian fall-off
-        ShapeConstraintSum con(kh, sigma);
-        grid_.forEachNeighbor(sx[k], sy[k], sz[k], kh, [&](std::uint32_t j, float dx, float dy, float dz, float d2) {
-          if (j != k) con.add(dx, dy, dz, d2);
-        });
         external += con.force(wCon);
         // F_dis (eq. 6-7): toward the insect's own sample point
         const Vec3 target = targetOf(ids_[k], keyA, keyB, f, rot, shift, pivot);
@@ -279,7 +341,44 @@ class ShapeModel final : public Model {
       tx_[k] = x.x() + v.x() * dt;
       ty_[k] = x.y() + v.y() * dt;
       tz_[k] = x.z() + v.z() * dt;
-    });
+    };
+
+    if (nearest) {
+      // one pass over each cell's 27-cell neighbourhood (gathered once for the cell's insects): F_con's
+      // neighbours and F_int's candidates
+      forEachPointNeighbors(grid_, searchR, blocks_, [&](std::uint32_t k, const CellBlock& block, std::size_t hits) {
+        std::vector<std::uint64_t>& keys = keys_[static_cast<std::size_t>(threadIndex())];
+        keys.clear();
+        ShapeConstraintSum con(kh, sigma);
+        const float qx = sx[k], qy = sy[k], qz = sz[k];
+        for (std::size_t h = 0; h < hits; ++h) {
+          const std::uint32_t b = block.hits[h];
+          const std::uint32_t j = block.index[b];
+          if (j == k) continue;
+          const float d2 = block.d2[b];
+          if (shaped) con.add(block.x[b] - qx, block.y[b] - qy, block.z[b] - qz, d2);
+          if (d2 <= rAtt * rAtt) keys.push_back(neighbourKey(d2, j));
+        }
+        insect(k, nearestForce(k, keys, searchR), con);
+      });
+    } else {
+      parallelFor(n, [&](std::size_t k) {
+        ShapeConstraintSum con(kh, sigma);
+        if (shaped) {
+          grid_.forEachNeighbor(sx[k], sy[k], sz[k], kh, [&](std::uint32_t j, float dx, float dy, float dz, float d2) {
+            if (j != k) con.add(dx, dy, dz, d2);
+          });
+        }
+        insect(k, Vec3(fx_[k], fy_[k], fz_[k]), con);
+      });
+    }
+    if (nearest) {
+      // the next step's cell: the median of the K-th neighbour distances, plus a step's movement
+      sortScratch_.assign(reach_.begin(), reach_.end());
+      const std::size_t q = n / 2;
+      std::nth_element(sortScratch_.begin(), sortScratch_.begin() + static_cast<std::ptrdiff_t>(q), sortScratch_.end());
+      cellHint_ = std::min(rAtt, sortScratch_[q] + reachSlack);
+    }
     tForces_ += since(t0);
 
     // minimum distance enforcement on the moved positions (neighbours from this step's grid: nobody moved
@@ -440,6 +539,10 @@ class ShapeModel final : public Model {
   std::vector<float> vx_, vy_, vz_, fx_, fy_, fz_, tx_, ty_, tz_, nvx_, nvy_, nvz_;
   std::vector<float> tgx_, tgy_, tgz_;  // each insect's sample point this step
   std::vector<std::uint32_t> ids_;
+  std::vector<CellBlock> blocks_;                  // per thread: a cell's neighbourhood
+  std::vector<std::vector<std::uint64_t>> keys_;  // per thread: the nearest-neighbour search's candidates
+  std::vector<float> reach_;  // per insect id: its K-th neighbour's distance last step (a search hint only)
+  float cellHint_ = 0.0f;     // the grid's smallest cell from the last step's K-th distances (checkpointed)
   std::vector<std::uint8_t> movedFlag_;
   std::vector<float> err_, speed_, sortScratch_;
   SwarmState next_;
@@ -462,6 +565,7 @@ ShapeParams readShapeParams(JsonReader& r, const ModelContext& context) {
   p.wRep = r.number("w_rep", p.wRep, weight);
   p.wAli = r.number("w_ali", p.wAli, weight);
   p.wAtt = r.number("w_att", p.wAtt, weight);
+  p.neighbours = static_cast<int>(r.integer("neighbours", p.neighbours, 0, 10000));
   p.theta = r.number("far_field_theta", p.theta, Range::closed(0.0, 2.0));
   {
     JsonReader nz = r.object("noise", false);

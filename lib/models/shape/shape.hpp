@@ -50,7 +50,11 @@ struct ShapeParams {
   // interaction zones (eq. 2-3): radii in m, weights in m/s^2
   double rRep = 0.3, rAli = 10.0, rAtt = 30.0;
   double wRep = 0.2, wAli = 3.0, wAtt = 13.0;
-  double theta = 1.0;  // far-field approximation of F_int (0: exact; bswarm's interaction.hpp)
+  // F_int's neighbours: the `neighbours` nearest insects within r_att (section 7: "nearest neighbors
+  // search ... when computing the attractive force"); 0: every insect within r_att (eq. 2 read literally),
+  // with the far-field approximation `theta` (0: exact; bswarm's interaction.hpp)
+  int neighbours = 10;
+  double theta = 1.0;
   // curl noise (eq. 4)
   double rho = 0.32;    // ρ, m: the noise's length scale (lattice cell)
   double eta = 0.125;   // η, m^2/s^2: the potential's magnitude (|F_cur| ~ η/ρ)
@@ -91,6 +95,39 @@ inline Vec3 distanceForce(const Vec3& x, const Vec3& s, float wDis, float invRan
   const float e = to.norm();
   return e > 0.0f ? Vec3(to * (wDis * distanceProfile(e * invRange) / e)) : Vec3::Zero();
 }
+
+// F_int (eq. 2-3) of one insect over a given set of neighbours: add(d, d2, dv) per
+// neighbour j with d = r_j − r_i, d2 = |d|², dv = v_j − v_i; then
+// force() = Σ_k ω_k / N_k Σ_{j in zone k} (S_k d̂ + (1 − S_k²) dv̂) with zones
+// rep [0, r_rep) S = −1, ali [r_rep, r_ali) S = 0, att [r_ali, r_att] S = +1
+// (beyond r_att: no zone). A zero d or dv adds a zero vector but counts.
+struct ZonalSum {
+  float rRep2, rAli2, rAtt2;
+  float w[3];
+  Vec3 sum[3] = {Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
+  int count[3] = {0, 0, 0};
+  ZonalSum(float rRep, float rAli, float rAtt, float wRep, float wAli, float wAtt)
+      : rRep2(rRep * rRep), rAli2(rAli * rAli), rAtt2(rAtt * rAtt), w{wRep, wAli, wAtt} {}
+  void add(float dx, float dy, float dz, float d2, float dvx, float dvy, float dvz) {
+    if (!(d2 <= rAtt2)) return;
+    if (d2 < rAli2 && d2 >= rRep2) {  // alignment: toward the neighbour's velocity
+      const float v2 = dvx * dvx + dvy * dvy + dvz * dvz;
+      if (v2 > 0.0f) sum[1] += Vec3(dvx, dvy, dvz) / std::sqrt(v2);
+      ++count[1];
+      return;
+    }
+    const int zone = d2 < rRep2 ? 0 : 2;
+    if (d2 > 0.0f) sum[zone] += Vec3(dx, dy, dz) * ((zone == 0 ? -1.0f : 1.0f) / std::sqrt(d2));
+    ++count[zone];
+  }
+  Vec3 force() const {
+    Vec3 f = Vec3::Zero();
+    for (int z = 0; z < 3; ++z) {
+      if (count[z] > 0) f += sum[z] * (w[z] / static_cast<float>(count[z]));
+    }
+    return f;
+  }
+};
 
 // F_con (eq. 5) of one insect, one neighbour at a time: add(d) with d = r_j − r_i
 // (any candidate; those at Manhattan distance M >= threshold, or at the insect's
