@@ -20,6 +20,7 @@
 #include "models/shape/assignment.hpp"
 #include "models/shape/path.hpp"
 #include "models/shape/sampling.hpp"
+#include "spatial/nearest.hpp"
 #include "spatial/uniform_grid.hpp"
 
 namespace swarmsim {
@@ -30,21 +31,6 @@ using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 constexpr double kMaxForce = 1e6;  // m/s^2: weights of the forces
-
-// a neighbour as one sortable key: squared distance (a non-negative float's bits order as the float), then
-// its sorted position
-std::uint64_t neighbourKey(float d2, std::uint32_t j) {
-  std::uint32_t bits;
-  std::memcpy(&bits, &d2, sizeof bits);
-  return (static_cast<std::uint64_t>(bits) << 32) | j;
-}
-
-float keyDistance2(std::uint64_t key) {
-  const auto bits = static_cast<std::uint32_t>(key >> 32);
-  float d2;
-  std::memcpy(&d2, &bits, sizeof d2);
-  return d2;
-}
 
 bool sameTopology(const TriangleMesh& a, const TriangleMesh& b) {
   return a.vertices.size() == b.vertices.size() && a.triangles == b.triangles;
@@ -276,29 +262,17 @@ class ShapeModel final : public Model {
     const ZonalSum zones(static_cast<float>(p_.rRep), static_cast<float>(p_.rAli), rAtt, static_cast<float>(p_.wRep),
                          static_cast<float>(p_.wAli), static_cast<float>(p_.wAtt));
     // F_int over the K nearest within r_att of insect k, given the keys of every insect within radius r of it
-    // (r >= the grid's cell >= k h): when they are fewer than K the radius doubles (up to r_att). The K are
-    // sorted, so neither the radius nor the candidates' order changes the result.
+    // (r >= the grid's cell >= k h); spatial/nearest.hpp widens the search from the insect's K-th distance of
+    // the last step when they are fewer than K, and sorts the K, so the result depends on neither
     const auto nearestForce = [&](std::size_t k, std::vector<std::uint64_t>& keys, float r) -> Vec3 {
       const Vec3 x(sx[k], sy[k], sz[k]);
       const std::uint32_t id = ids_[k];
-      if (keys.size() < K && r < rAtt) {
-        r = std::max(r, std::min(rAtt, 1.1f * reach_[id] + reachSlack));  // from last step's K-th distance
-        for (;;) {
-          keys.clear();
-          grid_.forEachNeighbor(x.x(), x.y(), x.z(), r, [&](std::uint32_t j, float, float, float, float d2) {
-            if (j != k && d2 <= rAtt * rAtt) keys.push_back(neighbourKey(d2, j));
-          });
-          if (keys.size() >= K || r >= rAtt) break;
-          r = std::min(2.0f * r, rAtt);
-        }
-      }
-      if (keys.size() > K) std::nth_element(keys.begin(), keys.begin() + static_cast<std::ptrdiff_t>(K), keys.end());
-      const std::size_t m = std::min(K, keys.size());
-      std::sort(keys.begin(), keys.begin() + static_cast<std::ptrdiff_t>(m));
+      const std::size_t m =
+          nearestKeys(grid_, static_cast<std::uint32_t>(k), K, r, 1.1f * reach_[id] + reachSlack, rAtt, keys);
       reach_[id] = m == K ? std::sqrt(keyDistance2(keys[m - 1])) : rAtt;
       ZonalSum zonal = zones;
       for (std::size_t q = 0; q < m; ++q) {
-        const auto j = static_cast<std::uint32_t>(keys[q]);
+        const std::uint32_t j = keyIndex(keys[q]);
         const float dx = sx[j] - x.x(), dy = sy[j] - x.y(), dz = sz[j] - x.z();
         zonal.add(dx, dy, dz, dx * dx + dy * dy + dz * dz, vx_[j] - vx_[k], vy_[j] - vy_[k], vz_[j] - vz_[k]);
       }

@@ -1,0 +1,59 @@
+#pragma once
+// K-nearest-neighbour search on a UniformGrid (the shape model's F_int,
+// docs/models/shape.md; tests/knn_test.cpp checks it against nanoflann).
+//
+// A neighbour is one 64-bit key: its squared distance (a non-negative float,
+// whose bits order as the float does) in the high half, its sorted position in
+// the grid in the low half, so keys sort by distance, ties by position.
+//
+// nearestKeys(grid, k, K, r, hint, rMax, keys): `keys` holds the keys of every
+// point j != k within r of sorted point k (and within rMax), for example from
+// forEachPointNeighbors' cell-blocked pass. When they are fewer than K and
+// r < rMax it searches again from max(r, hint), doubling the radius up to rMax,
+// until K are found. It leaves the min(K, found) nearest, ascending, in
+// keys[0, m) and returns m. The result depends neither on r nor on hint (only
+// on the points), so a caller may pass any radius hint.
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
+#include <vector>
+
+#include "spatial/uniform_grid.hpp"
+
+namespace swarmsim {
+
+inline std::uint64_t neighbourKey(float d2, std::uint32_t j) {
+  std::uint32_t bits;
+  std::memcpy(&bits, &d2, sizeof bits);
+  return (static_cast<std::uint64_t>(bits) << 32) | j;
+}
+inline float keyDistance2(std::uint64_t key) {
+  const auto bits = static_cast<std::uint32_t>(key >> 32);
+  float d2;
+  std::memcpy(&d2, &bits, sizeof d2);
+  return d2;
+}
+inline std::uint32_t keyIndex(std::uint64_t key) { return static_cast<std::uint32_t>(key); }
+
+inline std::size_t nearestKeys(const UniformGrid& grid, std::uint32_t k, std::size_t K, float r, float hint, float rMax,
+                               std::vector<std::uint64_t>& keys) {
+  const float qx = grid.sortedX()[k], qy = grid.sortedY()[k], qz = grid.sortedZ()[k];
+  const float rMax2 = rMax * rMax;
+  if (keys.size() < K && r < rMax) {
+    r = std::max(r, std::min(rMax, hint));
+    for (;;) {
+      keys.clear();
+      grid.forEachNeighbor(qx, qy, qz, r, [&](std::uint32_t j, float, float, float, float d2) {
+        if (j != k && d2 <= rMax2) keys.push_back(neighbourKey(d2, j));
+      });
+      if (keys.size() >= K || r >= rMax) break;
+      r = std::min(2.0f * r, rMax);
+    }
+  }
+  if (keys.size() > K) std::nth_element(keys.begin(), keys.begin() + static_cast<std::ptrdiff_t>(K), keys.end());
+  const std::size_t m = std::min(K, keys.size());
+  std::sort(keys.begin(), keys.begin() + static_cast<std::ptrdiff_t>(m));
+  return m;
+}
+
+}  // namespace swarmsim
