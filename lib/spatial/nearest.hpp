@@ -9,7 +9,7 @@
 // nearestKeys(grid, k, K, r, hint, rMax, keys): `keys` holds the keys of every
 // point j != k within r of sorted point k (and within rMax), for example from
 // forEachPointNeighbors' cell-blocked pass. When they are fewer than K and
-// r < rMax it searches again from max(r, hint), doubling the radius up to rMax,
+// r < rMax it searches again from max(2 r, hint), doubling the radius up to rMax,
 // until K are found. It leaves the min(K, found) nearest, ascending, in
 // keys[0, m) and returns m. The result depends neither on r nor on hint (only
 // on the points), so a caller may pass any radius hint.
@@ -40,7 +40,8 @@ inline std::size_t nearestKeys(const UniformGrid& grid, std::uint32_t k, std::si
   const float qx = grid.sortedX()[k], qy = grid.sortedY()[k], qz = grid.sortedZ()[k];
   const float rMax2 = rMax * rMax;
   if (keys.size() < K && r < rMax) {
-    r = std::max(r, std::min(rMax, hint));
+    // the caller's pass covered r: start beyond it, at the hint if that is farther
+    r = std::min(rMax, std::max(2.0f * r, hint));
     for (;;) {
       keys.clear();
       grid.forEachNeighbor(qx, qy, qz, r, [&](std::uint32_t j, float, float, float, float d2) {
