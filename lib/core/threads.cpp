@@ -94,7 +94,8 @@ struct Governor {
   Phase phase = Phase::kSettled;
   int alternative = 1;  // the team that fits the CPUs others leave free
   double phaseStart = 0.0, holdUntil = 0.0, hold = 5.0;
-  int window = 0;  // of the measurement
+  int window = 0;           // of the measurement
+  bool windowOpens = false;  // the next look starts the window
   long long freeSteps = 0, fullSteps = 0;
   double freeTime = 0.0, fullTime = 0.0;
   int lastAlternative = -1, lastChoice = -1;
@@ -184,6 +185,14 @@ struct Governor {
       if (current != max) use(max);
       return;
     }
+    if (phase == Phase::kProbing && windowOpens) {
+      // a window starts one look after its team was set, so the switch (threads waking,
+      // the scheduler placing them) is not counted against either team
+      windowOpens = false;
+      phaseStart = now;
+      phaseTicks = ticks;
+      return;
+    }
     const double elapsed = now - phaseStart;
     const long long steps = ticks - phaseTicks;
     if (phase == Phase::kSettled) {
@@ -209,8 +218,7 @@ struct Governor {
       }
     }
     use(windowIsFull(window) ? max : alternative);
-    phaseStart = now;
-    phaseTicks = ticks;
+    windowOpens = true;
   }
 };
 
