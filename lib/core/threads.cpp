@@ -84,6 +84,7 @@ struct Governor {
   bool init = false, adapt = false;
   int max = 1, current = 1, cpus = 1;
   double lastWall = 0.0, lastBusy = 0.0, lastOwn = 0.0, others = 0.0;
+  double othersError = 0.0;  // how far `others` may be off: the ticks of /proc/stat over the look
   // threadTick reads the clock only every `stride` calls, so a step of a few
   // agents (~100 ns) does not pay for it; the stride adapts to ~1-20 ms a look
   double lastLook = 0.0;
@@ -153,7 +154,11 @@ struct Governor {
   // taken from 0.45 CPUs of others' time on: a process that wants a whole CPU
   // gets only half of one it shares with one of our threads.
   int freeTeam() const {
-    const int taken = static_cast<int>(std::floor(others + 0.55));
+    // /proc/stat counts in clock ticks (1/100 s): over a short look each CPU's busy time is off by up
+    // to a tick, and a tick is charged whole to whoever ran at it; twice that much of others' time
+    // is not trusted (0.4 CPUs on 2 CPUs after 0.1 s, 0.08 after 0.5 s), so an idle machine is
+    // never taken for a busy one while a process that holds a whole CPU still shows at 0.1 s
+    const int taken = static_cast<int>(std::floor(std::max(0.0, others - othersError) + 0.55));
     return std::clamp(cpus - taken, 1, max);
   }
 
@@ -271,6 +276,8 @@ void threadTick() {
       g.lookInterval = 0.5;
       // CPUs that other processes kept busy over the interval
       g.others = std::max(0.0, ((busy - g.lastBusy) - (own - g.lastOwn)) / wall);
+      static const double hz = static_cast<double>(sysconf(_SC_CLK_TCK));
+      g.othersError = 2.0 * static_cast<double>(g.cpus) / (hz * wall);
       g.lastWall = now;
       g.lastBusy = busy;
       g.lastOwn = own;
