@@ -225,13 +225,7 @@ class BswarmModel final : public Model {
     tGrid_ += since(t0);
 
     // F_int (eq. 4)
-    ZoneParams zones;
-    zones.rRep = static_cast<float>(d.rRep);
-    zones.rAli = static_cast<float>(d.rAli);
-    zones.rAtt = static_cast<float>(d.rAtt);
-    zones.lambdaRep = static_cast<float>(d.lambdaRep);
-    zones.lambdaAli = static_cast<float>(d.lambdaAli);
-    zones.lambdaAtt = static_cast<float>(d.lambdaAtt);
+    const ZoneParams zones = ZoneParams::of(d.rRep, d.rAli, d.rAtt, d.lambdaRep, d.lambdaAli, d.lambdaAtt);
     t0 = Clock::now();
     forces_.compute(grid_, vx_.data(), vy_.data(), vz_.data(), zones, static_cast<float>(p_.theta), fx_.data(),
                     fy_.data(), fz_.data());

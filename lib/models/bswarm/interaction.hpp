@@ -18,6 +18,11 @@ namespace swarmsim {
 struct ZoneParams {
   float rRep = 0.2f, rAli = 0.2f, rAtt = 1.0f;  // absolute radii, m: 0 < rRep <= rAli <= rAtt
   float lambdaRep = 1.0f, lambdaAli = 0.0f, lambdaAtt = 1.0f;
+  // from a model's (double) parameters: the three radii, then the three weights
+  static ZoneParams of(double rRep, double rAli, double rAtt, double wRep, double wAli, double wAtt) {
+    return {static_cast<float>(rRep), static_cast<float>(rAli),  static_cast<float>(rAtt),
+            static_cast<float>(wRep), static_cast<float>(wAli), static_cast<float>(wAtt)};
+  }
 };
 
 class InteractionForces {

@@ -223,13 +223,7 @@ class ShapeModel final : public Model {
     auto t0 = Clock::now();
     const bool nearest = p_.neighbours > 0;
     if (!nearest) {
-      ZoneParams zones;
-      zones.rRep = static_cast<float>(p_.rRep);
-      zones.rAli = static_cast<float>(p_.rAli);
-      zones.rAtt = static_cast<float>(p_.rAtt);
-      zones.lambdaRep = static_cast<float>(p_.wRep);
-      zones.lambdaAli = static_cast<float>(p_.wAli);
-      zones.lambdaAtt = static_cast<float>(p_.wAtt);
+      const ZoneParams zones = ZoneParams::of(p_.rRep, p_.rAli, p_.rAtt, p_.wRep, p_.wAli, p_.wAtt);
       forces_.compute(grid_, vx_.data(), vy_.data(), vz_.data(), zones, static_cast<float>(p_.theta), fx_.data(),
                       fy_.data(), fz_.data());
     }
