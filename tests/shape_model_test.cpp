@@ -140,6 +140,8 @@ TEST_CASE("shape: F_int acts over each insect's K nearest neighbours within r_at
   // 400 insects in a 6 m box, no noise, no target yet (its key is at 1 s), alpha 1, no MDE, no speed limit
   // to speak of: one step changes each velocity by exactly F_int dt, which the test recomputes by brute force
   const std::string mesh = std::string(SWARMSIM_SOURCE_DIR) + "/data/shapes/sphere.obj";
+  // at the first step (no neighbours known yet) and at the sixth (the search bounded by the last step's K)
+  for (const int warm : {0, 5})
   for (const int K : {1, 6, 40}) {
     swarmsim::Json j = {
         {"name", "knn"}, {"seed", 5u}, {"dt", 0.01}, {"frames", 200u}, {"steps_per_frame", 1u},
@@ -153,6 +155,7 @@ TEST_CASE("shape: F_int acts over each insect's K nearest neighbours within r_at
              {"max_speed", 1000.0}, {"targets", {{{"time", 1.0}, {"file", mesh}}}}}}}}}};
     const swarmsim::Scenario sc = swarmsim::parseScenario(j, "knn.json");
     swarmsim::Simulation sim(sc);
+    for (int w = 0; w < warm; ++w) sim.step();
     const swarmsim::SwarmState before = sim.swarms()[0];
     sim.step();
     const swarmsim::SwarmState& after = sim.swarms()[0];
@@ -186,6 +189,6 @@ TEST_CASE("shape: F_int acts over each insect's K nearest neighbours within r_at
       ++checked;
     }
     CHECK(checked == 400);
-    if (K == 40) CHECK(withFew > 100);  // some insects have fewer than K within r_att: all of those count
+    if (K == 40) CHECK(withFew > 50);  // some insects have fewer than K within r_att: all of those count
   }
 }

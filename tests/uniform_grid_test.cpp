@@ -643,3 +643,45 @@ TEST_CASE("UniformGrid gatherCell and filter match brute force", "[grid]") {
     }
   }
 }
+
+TEST_CASE("UniformGrid coveredRadius: every point within it of a query is in the gathered block", "[grid]") {
+  // the shape model takes an insect's nearest neighbours from its cell's block when they lie within
+  // coveredRadius; a point missed there would silently change F_int
+  std::mt19937 rng(11);
+  Points p;
+  std::uniform_real_distribution<float> ux(-2.1f, 5.3f), uy(0.0f, 3.7f), uz(10.0f, 12.45f);
+  for (int i = 0; i < 3000; ++i) {
+    const float a = ux(rng), b = uy(rng), c = uz(rng);
+    p.add(a, b, c);
+  }
+  for (const float cell : {0.3f, 0.5f, 0.91f}) {
+    UniformGrid g;
+    build(g, p, cell);
+    swarmsim::CellBlock block;
+    std::size_t checked = 0, bounded = 0, inside = 0;
+    for (std::size_t c = 0; c < g.cellCount(); ++c) {
+      if (g.cellBegin(c) == g.cellEnd(c)) continue;
+      g.gatherCell(c, cell, block);
+      std::vector<std::uint32_t> in(block.index.begin(), block.index.begin() + static_cast<std::ptrdiff_t>(block.size));
+      std::sort(in.begin(), in.end());
+      for (std::uint32_t k = g.cellBegin(c); k < g.cellEnd(c); ++k) {
+        const float qx = g.sortedX()[k], qy = g.sortedY()[k], qz = g.sortedZ()[k];
+        const float r = g.coveredRadius(block, qx, qy, qz);
+        CHECK(r >= 0.999f * cell);  // at least one cell: the block is the cell and its 26 neighbours
+        if (r < 1e30f) ++bounded;
+        for (std::uint32_t j = 0; j < g.size(); ++j) {
+          const float dx = g.sortedX()[j] - qx, dy = g.sortedY()[j] - qy, dz = g.sortedZ()[j] - qz;
+          if (dx * dx + dy * dy + dz * dz > r * r) continue;
+          ++inside;
+          if (!std::binary_search(in.begin(), in.end(), j)) {
+            FAIL_CHECK("point " << j << " within " << r << " of " << k << " is not in the block");
+          }
+        }
+        ++checked;
+      }
+    }
+    CHECK(checked == p.x.size());
+    CHECK(bounded > checked / 2);     // not vacuous: most blocks are bounded by inner cell faces
+    CHECK(inside > 2 * checked);      // and hold points within the radius
+  }
+}

@@ -137,7 +137,23 @@ void UniformGrid::gatherAround(float qx, float qy, float qz, float r, CellBlock&
   gatherBox(lo, hi, block);
 }
 
+float UniformGrid::coveredRadius(const CellBlock& block, float qx, float qy, float qz) const {
+  const double q[3] = {qx, qy, qz};
+  double g = std::numeric_limits<double>::infinity();
+  for (int a = 0; a < 3; ++a) {
+    const double cell = 1.0 / inv_[a];
+    if (block.lo[a] > 0) g = std::min(g, q[a] - (origin_[a] + block.lo[a] * cell));
+    if (block.hi[a] < dims_[a] - 1) g = std::min(g, origin_[a] + (block.hi[a] + 1) * cell - q[a]);
+  }
+  // cell coordinates and float distances round: stay a little inside
+  return static_cast<float>(std::max(0.0, std::min(g * (1.0 - 1e-5), 3.0e38)));
+}
+
 void UniformGrid::gatherBox(const int lo[3], const int hi[3], CellBlock& block) const {
+  for (int a = 0; a < 3; ++a) {
+    block.lo[a] = lo[a];
+    block.hi[a] = hi[a];
+  }
   std::size_t total = 0;
   for (int cz = lo[2]; cz <= hi[2]; ++cz) {
     for (int cy = lo[1]; cy <= hi[1]; ++cy) {

@@ -28,6 +28,7 @@ struct CellBlock {
   std::vector<float> d2;             // scratch: squared distances of the last filter
   std::vector<std::uint32_t> hits;   // block indices found by the last filter
   std::size_t size = 0;
+  int lo[3] = {0, 0, 0}, hi[3] = {-1, -1, -1};  // the gathered box of cells (inclusive)
 
   // block indices of the candidates within r of q go to hits[0, returned count),
   // their squared distances stay in d2; deterministic order
@@ -89,6 +90,10 @@ class UniformGrid {
     }
   }
   float cellSize(int axis) const { return static_cast<float>(1.0 / inv_[axis]); }
+  // a radius about q (a point inside block's box of cells) within which every
+  // grid point is in `block`: the distance from q to the nearest face of the box
+  // that is not the grid's edge (no point lies beyond those), less a float slack
+  float coveredRadius(const CellBlock& block, float qx, float qy, float qz) const;
 
   // call f(begin, end) for each run [begin, end) of sorted positions that can
   // hold points within r of q (one run per (y, z) cell row; rows may be empty)

@@ -255,19 +255,71 @@ class ShapeModel final : public Model {
 
     const ZonalSum zones(static_cast<float>(p_.rRep), static_cast<float>(p_.rAli), rAtt, static_cast<float>(p_.wRep),
                          static_cast<float>(p_.wAli), static_cast<float>(p_.wAtt));
-    // F_int over the K nearest within r_att of insect k, given the keys of every insect within radius r of it
-    // (r >= the grid's cell >= k h); spatial/nearest.hpp widens the search from the insect's K-th distance of
-    // the last step when they are fewer than K, and sorts the K, so the result depends on neither
-    const auto nearestForce = [&](std::size_t k, std::vector<std::uint64_t>& keys, float r) -> Vec3 {
-      const Vec3 x(sx[k], sy[k], sz[k]);
+    // F_int over the K nearest within r_att of insect k. Its K nearest are no farther than the farthest of
+    // the K it had last step (still K other insects), so one search of that radius finds them: within the
+    // block when the block is complete that far about k, else on the grid. Without last step's K (the first
+    // step, a resume, fewer than K within r_att) spatial/nearest.hpp widens from the block. The K are
+    // sorted, so the result depends on none of this, only on the positions.
+    if (nearest) {
+      if (prev_.size() != n * K) {
+        prev_.assign(n * K, 0);
+        prevCount_.assign(n, 0);
+      }
+      posOfId_.resize(n);
+      parallelFor(n, [&](std::size_t k) { posOfId_[ids_[k]] = static_cast<std::uint32_t>(k); });
+    }
+    const auto nearestForce = [&](std::size_t k, std::vector<std::uint64_t>& keys, const CellBlock& block,
+                                  float covered) -> Vec3 {
+      const float qx = sx[k], qy = sy[k], qz = sz[k];
       const std::uint32_t id = ids_[k];
-      const std::size_t m =
-          nearestKeys(grid_, static_cast<std::uint32_t>(k), K, r, 1.1f * reach_[id] + reachSlack, rAtt, keys);
+      std::uint32_t* prev = prev_.data() + static_cast<std::size_t>(id) * K;
+      std::size_t m = 0;
+      if (prevCount_[id] == K) {
+        float bound2 = 0.0f;
+        for (std::size_t q = 0; q < K; ++q) {
+          const std::uint32_t j = posOfId_[prev[q]];
+          const float dx = sx[j] - qx, dy = sy[j] - qy, dz = sz[j] - qz;
+          bound2 = std::max(bound2, dx * dx + dy * dy + dz * dz);
+        }
+        bound2 = std::min(bound2 * (1.0f + 1e-5f), rAtt * rAtt);  // a superset is harmless: float slack
+        std::size_t found = 0;
+        if (bound2 <= covered * covered) {
+          // branch-free compaction of the block's candidates within the bound (the filter left their
+          // squared distances in d2)
+          if (keys.size() < block.size) keys.resize(block.size + block.size / 2 + 16);  // grows rarely
+          std::uint64_t* out = keys.data();
+          const float* d2 = block.d2.data();
+          const std::uint32_t* index = block.index.data();
+          for (std::size_t b = 0; b < block.size; ++b) {
+            out[found] = neighbourKey(d2[b], index[b]);
+            found += (d2[b] <= bound2) & (index[b] != k) ? 1u : 0u;
+          }
+        } else {
+          keys.clear();
+          grid_.forEachNeighbor(qx, qy, qz, std::sqrt(bound2), [&](std::uint32_t j, float, float, float, float d2) {
+            if (j != k && d2 <= bound2) keys.push_back(neighbourKey(d2, j));
+          });
+          found = keys.size();
+        }
+        m = std::min(K, found);
+        const auto first = keys.begin();
+        if (found > K) std::nth_element(first, first + static_cast<std::ptrdiff_t>(K), first + static_cast<std::ptrdiff_t>(found));
+        std::sort(first, first + static_cast<std::ptrdiff_t>(m));
+      } else {
+        keys.clear();
+        const float c2 = covered * covered;
+        for (std::size_t b = 0; b < block.size; ++b) {
+          if (block.d2[b] <= c2 && block.index[b] != k) keys.push_back(neighbourKey(block.d2[b], block.index[b]));
+        }
+        m = nearestKeys(grid_, static_cast<std::uint32_t>(k), K, covered, 1.1f * reach_[id] + reachSlack, rAtt, keys);
+      }
       reach_[id] = m == K ? std::sqrt(keyDistance2(keys[m - 1])) : rAtt;
+      prevCount_[id] = static_cast<std::uint32_t>(m);
       ZonalSum zonal = zones;
       for (std::size_t q = 0; q < m; ++q) {
         const std::uint32_t j = keyIndex(keys[q]);
-        const float dx = sx[j] - x.x(), dy = sy[j] - x.y(), dz = sz[j] - x.z();
+        prev[q] = ids_[j];
+        const float dx = sx[j] - qx, dy = sy[j] - qy, dz = sz[j] - qz;
         zonal.add(dx, dy, dz, dx * dx + dy * dy + dz * dz, vx_[j] - vx_[k], vy_[j] - vy_[k], vz_[j] - vz_[k]);
       }
       return zonal.force();
@@ -316,18 +368,16 @@ class ShapeModel final : public Model {
       // neighbours and F_int's candidates
       forEachPointNeighbors(grid_, searchR, blocks_, [&](std::uint32_t k, const CellBlock& block, std::size_t hits) {
         std::vector<std::uint64_t>& keys = keys_[static_cast<std::size_t>(threadIndex())];
-        keys.clear();
         ShapeConstraintSum con(kh, sigma);
         const float qx = sx[k], qy = sy[k], qz = sz[k];
-        for (std::size_t h = 0; h < hits; ++h) {
-          const std::uint32_t b = block.hits[h];
-          const std::uint32_t j = block.index[b];
-          if (j == k) continue;
-          const float d2 = block.d2[b];
-          if (shaped) con.add(block.x[b] - qx, block.y[b] - qy, block.z[b] - qz, d2);
-          if (d2 <= rAtt * rAtt) keys.push_back(neighbourKey(d2, j));
+        if (shaped) {
+          for (std::size_t h = 0; h < hits; ++h) {
+            const std::uint32_t b = block.hits[h];
+            if (block.index[b] != k) con.add(block.x[b] - qx, block.y[b] - qy, block.z[b] - qz, block.d2[b]);
+          }
         }
-        insect(k, nearestForce(k, keys, searchR), con);
+        const float covered = std::min(rAtt, grid_.coveredRadius(block, qx, qy, qz));
+        insect(k, nearestForce(k, keys, block, covered), con);
       });
     } else {
       parallelFor(n, [&](std::size_t k) {
@@ -509,6 +559,9 @@ class ShapeModel final : public Model {
   std::vector<std::uint32_t> ids_;
   std::vector<CellBlock> blocks_;                  // per thread: a cell's neighbourhood
   std::vector<std::vector<std::uint64_t>> keys_;  // per thread: the nearest-neighbour search's candidates
+  std::vector<std::uint32_t> prev_;       // per insect id: the ids of its K nearest last step (a bound only)
+  std::vector<std::uint32_t> prevCount_;  // per insect id: how many of them
+  std::vector<std::uint32_t> posOfId_;    // insect id -> sorted position this step
   std::vector<float> reach_;  // per insect id: its K-th neighbour's distance last step (a search hint only)
   float cellHint_ = 0.0f;     // the grid's smallest cell from the last step's K-th distances (checkpointed)
   std::vector<std::uint8_t> movedFlag_;
