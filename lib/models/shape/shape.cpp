@@ -250,7 +250,6 @@ class ShapeModel final : public Model {
     const float rAtt = static_cast<float>(p_.rAtt);
     const auto K = static_cast<std::size_t>(std::max(0, p_.neighbours));
     const float reachSlack = 2.0f * vmax * dt;  // the K-th neighbour's distance changes by at most this in a step
-    if (nearest && reach_.size() != n) reach_.assign(n, 0.0f);
     if (keys_.size() < static_cast<std::size_t>(threadCount())) keys_.resize(static_cast<std::size_t>(threadCount()));
 
     const ZonalSum zones(static_cast<float>(p_.rRep), static_cast<float>(p_.rAli), rAtt, static_cast<float>(p_.wRep),
@@ -261,23 +260,26 @@ class ShapeModel final : public Model {
     // step, a resume, fewer than K within r_att) spatial/nearest.hpp widens from the block. The K are
     // sorted, so the result depends on none of this, only on the positions.
     if (nearest) {
-      if (prev_.size() != n * K) {
-        prev_.assign(n * K, 0);
-        prevCount_.assign(n, 0);
+      // by state index, which is last step's sorted position (the state is written back in grid order), so
+      // an insect's entries sit about where it does in the sorted arrays
+      if (prevCount_.size() != n || prev_.size() != n * K) {
+        for (auto* a : {&prev_, &prevNext_}) a->assign(n * K, 0);
+        for (auto* a : {&prevCount_, &prevCountNext_}) a->assign(n, 0);
+        for (auto* a : {&reach_, &reachNext_}) a->assign(n, 0.0f);
       }
-      posOfId_.resize(n);
-      parallelFor(n, [&](std::size_t k) { posOfId_[ids_[k]] = static_cast<std::uint32_t>(k); });
+      posOfIndex_.resize(n);
+      parallelFor(n, [&](std::size_t k) { posOfIndex_[order[k]] = static_cast<std::uint32_t>(k); });
     }
     const auto nearestForce = [&](std::size_t k, std::vector<std::uint64_t>& keys, const CellBlock& block,
                                   float covered) -> Vec3 {
       const float qx = sx[k], qy = sy[k], qz = sz[k];
-      const std::uint32_t id = ids_[k];
-      std::uint32_t* prev = prev_.data() + static_cast<std::size_t>(id) * K;
+      const std::uint32_t i = order[k];
+      const std::uint32_t* prev = prev_.data() + static_cast<std::size_t>(i) * K;
       std::size_t m = 0;
-      if (prevCount_[id] == K) {
+      if (prevCount_[i] == K) {
         float bound2 = 0.0f;
         for (std::size_t q = 0; q < K; ++q) {
-          const std::uint32_t j = posOfId_[prev[q]];
+          const std::uint32_t j = posOfIndex_[prev[q]];
           const float dx = sx[j] - qx, dy = sy[j] - qy, dz = sz[j] - qz;
           bound2 = std::max(bound2, dx * dx + dy * dy + dz * dz);
         }
@@ -311,14 +313,16 @@ class ShapeModel final : public Model {
         for (std::size_t b = 0; b < block.size; ++b) {
           if (block.d2[b] <= c2 && block.index[b] != k) keys.push_back(neighbourKey(block.d2[b], block.index[b]));
         }
-        m = nearestKeys(grid_, static_cast<std::uint32_t>(k), K, covered, 1.1f * reach_[id] + reachSlack, rAtt, keys);
+        m = nearestKeys(grid_, static_cast<std::uint32_t>(k), K, covered, 1.1f * reach_[i] + reachSlack, rAtt, keys);
       }
-      reach_[id] = m == K ? std::sqrt(keyDistance2(keys[m - 1])) : rAtt;
-      prevCount_[id] = static_cast<std::uint32_t>(m);
+      // for the next step, whose state index is this step's sorted position
+      reachNext_[k] = m == K ? std::sqrt(keyDistance2(keys[m - 1])) : rAtt;
+      prevCountNext_[k] = static_cast<std::uint32_t>(m);
+      std::uint32_t* next = prevNext_.data() + k * K;
       ZonalSum zonal = zones;
       for (std::size_t q = 0; q < m; ++q) {
         const std::uint32_t j = keyIndex(keys[q]);
-        prev[q] = ids_[j];
+        next[q] = j;
         const float dx = sx[j] - qx, dy = sy[j] - qy, dz = sz[j] - qz;
         zonal.add(dx, dy, dz, dx * dx + dy * dy + dz * dz, vx_[j] - vx_[k], vy_[j] - vy_[k], vz_[j] - vz_[k]);
       }
@@ -392,6 +396,9 @@ class ShapeModel final : public Model {
     }
     if (nearest) {
       // the next step's cell: the median of the K-th neighbour distances, plus a step's movement
+      prev_.swap(prevNext_);
+      prevCount_.swap(prevCountNext_);
+      reach_.swap(reachNext_);
       sortScratch_.assign(reach_.begin(), reach_.end());
       const std::size_t q = n / 2;
       std::nth_element(sortScratch_.begin(), sortScratch_.begin() + static_cast<std::ptrdiff_t>(q), sortScratch_.end());
@@ -559,10 +566,13 @@ class ShapeModel final : public Model {
   std::vector<std::uint32_t> ids_;
   std::vector<CellBlock> blocks_;                  // per thread: a cell's neighbourhood
   std::vector<std::vector<std::uint64_t>> keys_;  // per thread: the nearest-neighbour search's candidates
-  std::vector<std::uint32_t> prev_;       // per insect id: the ids of its K nearest last step (a bound only)
-  std::vector<std::uint32_t> prevCount_;  // per insect id: how many of them
-  std::vector<std::uint32_t> posOfId_;    // insect id -> sorted position this step
-  std::vector<float> reach_;  // per insect id: its K-th neighbour's distance last step (a search hint only)
+  // per state index (last step's sorted position), with the next step's in *Next_: the K nearest of last
+  // step, as state indices (any K other insects bound the K-th distance: a bound only, never checkpointed),
+  // how many there were, and the K-th one's distance (a search hint only)
+  std::vector<std::uint32_t> prev_, prevNext_;
+  std::vector<std::uint32_t> prevCount_, prevCountNext_;
+  std::vector<float> reach_, reachNext_;
+  std::vector<std::uint32_t> posOfIndex_;  // state index -> sorted position this step
   float cellHint_ = 0.0f;     // the grid's smallest cell from the last step's K-th distances (checkpointed)
   std::vector<std::uint8_t> movedFlag_;
   std::vector<float> err_, speed_, sortScratch_;
