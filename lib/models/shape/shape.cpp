@@ -174,6 +174,7 @@ class ShapeModel final : public Model {
     if (g >= 0) {
       prepareGroup(static_cast<std::size_t>(g), assign.size());
       assign_ = std::move(assign);
+      ids_.clear();  // the samples by sorted position are no longer known
     }
     group_ = g;
   }
@@ -193,6 +194,7 @@ class ShapeModel final : public Model {
       if (g >= 0) {
         prepareGroup(static_cast<std::size_t>(g), n);
         assignFrom(s, t);
+        ids_.clear();  // new samples: none is where last step left it
       }
     }
 
@@ -207,7 +209,11 @@ class ShapeModel final : public Model {
     for (auto* a : {&vx_, &vy_, &vz_, &fx_, &fy_, &fz_, &tx_, &ty_, &tz_, &nvx_, &nvy_, &nvz_, &tgx_, &tgy_, &tgz_}) {
       a->resize(n);
     }
+    ids_.swap(lastIds_);  // last step's ids by sorted position: this step's by state index
     ids_.resize(n);
+    sample_.swap(lastSample_);
+    sample_.resize(n);
+    const bool assigned = assign_.size() == n;
     err_.resize(n);
     speed_.resize(n);
     parallelFor(n, [&](std::size_t k) {
@@ -216,6 +222,9 @@ class ShapeModel final : public Model {
       vy_[k] = s.vy[i];
       vz_[k] = s.vz[i];
       ids_[k] = s.id[i];
+      // the insect's sample: where last step left it when the state is as last step wrote it (it is, but
+      // for the step after a resume), else through the id (a random access)
+      if (assigned) sample_[k] = i < lastIds_.size() && lastIds_[i] == ids_[k] ? lastSample_[i] : assign_[ids_[k]];
     });
 
     // F_int (eq. 2-3): over the nearest neighbours (below, with F_con), or over every insect within r_att
@@ -339,7 +348,7 @@ class ShapeModel final : public Model {
         // F_con (eq. 5): spread from the insects within the Manhattan threshold, Gaussian fall-off
         external += con.force(wCon);
         // F_dis (eq. 6-7): toward the insect's own sample point
-        const Vec3 target = targetOf(ids_[k], keyA, keyB, f, rot, shift, pivot);
+        const Vec3 target = targetOf(sample_[k], keyA, keyB, f, rot, shift, pivot);
         tgx_[k] = target.x();  // kept for the shape error after the move
         tgy_[k] = target.y();
         tgz_[k] = target.z();
@@ -538,9 +547,8 @@ class ShapeModel final : public Model {
   static Vec3 place(const Vec3& p, const Eigen::Matrix3f& rot, const Vec3& shift, const Vec3& pivot) {
     return shift == Vec3::Zero() && pivot == Vec3::Zero() ? p : Vec3(shift + rot * (p - pivot));
   }
-  Vec3 targetOf(std::uint32_t id, std::size_t a, std::size_t b, float f, const Eigen::Matrix3f& rot, const Vec3& shift,
+  Vec3 targetOf(std::uint32_t i, std::size_t a, std::size_t b, float f, const Eigen::Matrix3f& rot, const Vec3& shift,
                 const Vec3& pivot) const {
-    const std::uint32_t i = assign_[id];
     const Vec3& pa = keyPos_[a][i];
     return place(pa + f * (keyPos_[b][i] - pa), rot, shift, pivot);
   }
@@ -563,7 +571,8 @@ class ShapeModel final : public Model {
   // per step, in grid order
   std::vector<float> vx_, vy_, vz_, fx_, fy_, fz_, tx_, ty_, tz_, nvx_, nvy_, nvz_;
   std::vector<float> tgx_, tgy_, tgz_;  // each insect's sample point this step
-  std::vector<std::uint32_t> ids_;
+  std::vector<std::uint32_t> ids_, lastIds_;        // ids by sorted position, this step's and last step's
+  std::vector<std::uint32_t> sample_, lastSample_;  // the insects' samples (assign_) by sorted position, alike
   std::vector<CellBlock> blocks_;                  // per thread: a cell's neighbourhood
   std::vector<std::vector<std::uint64_t>> keys_;  // per thread: the nearest-neighbour search's candidates
   // per state index (last step's sorted position), with the next step's in *Next_: the K nearest of last
