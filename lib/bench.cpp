@@ -95,6 +95,7 @@ void printRow(const BenchRow& row, const BenchOptions& options, std::ostream& ou
               {"steps_per_s", row.stepsPerSecond},
               {"ns_per_agent_step", row.nsPerAgentStep},
               {"steps", row.steps},
+              {"threads_used", row.threadsUsed},
               {"repeat", options.repeat},
               {"model_info", row.modelInfo}};
     out << j.dump() << "\n";
@@ -162,30 +163,31 @@ void runOrcaBench(const BenchOptions& options, const std::vector<std::int64_t>& 
     const float extent = spacing * static_cast<float>(side - 1);
     for (const int threads : threadList) {
       requestThreads(threads);
-      std::vector<double> pre, neighbours, lp, grid, total;
+      std::vector<double> pre, neighbours, lp, grid, total, team;
       std::size_t infeasible = 0;
       for (int r = 0; r < std::max(1, options.repeat); ++r) {
         const auto t0 = Clock::now();
         // state in the grid's order after each step (x, v, goal move together)
-        std::vector<float> x(n), y(n), z(n), vx(n, 0.0f), vy(n, 0.0f), vz(n, 0.0f), gx(n), gy(n), gz(n);
-        for (std::size_t i = 0; i < n; ++i) {
-          x[i] = spacing * static_cast<float>(i % side);
-          y[i] = spacing * static_cast<float>((i / side) % side);
-          z[i] = spacing * static_cast<float>(i / (side * side));
-          AgentRng rng(1, 0, static_cast<std::uint32_t>(i), RngPurpose::kSpawnPosition);
-          gx[i] = rng.uniform(0.0f, extent);
-          gy[i] = rng.uniform(0.0f, extent);
-          gz[i] = rng.uniform(0.0f, extent);
-        }
+        std::vector<float> x(n), y(n), z(n), vx(n), vy(n), vz(n), gx(n), gy(n), gz(n);
+        const auto start = [&] {
+          for (std::size_t i = 0; i < n; ++i) {
+            x[i] = spacing * static_cast<float>(i % side);
+            y[i] = spacing * static_cast<float>((i / side) % side);
+            z[i] = spacing * static_cast<float>(i / (side * side));
+            vx[i] = vy[i] = vz[i] = 0.0f;
+            AgentRng rng(1, 0, static_cast<std::uint32_t>(i), RngPurpose::kSpawnPosition);
+            gx[i] = rng.uniform(0.0f, extent);
+            gy[i] = rng.uniform(0.0f, extent);
+            gz[i] = rng.uniform(0.0f, extent);
+          }
+        };
+        start();
         std::vector<float> px(n), py(n), pz(n), ox(n), oy(n), oz(n), tmp;
         UniformGrid uniformGrid;
         orca::Solver solver;
         pre.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
-        // warm-up: the first step sizes the scratch buffers; on a busy machine the
-        // warm-up lasts until the thread governor has chosen its team (at most 3 s)
-        const auto w0 = Clock::now();
-        bool warm = true;
-        for (std::int64_t s = 0; s < steps;) {
+        // one step; returns the grid's build time
+        const auto step = [&]() -> double {
           threadTick();  // as Simulation::step does: fewer threads on a busy machine
           const auto g0 = Clock::now();
           // as a model does: cells as the k-nearest search wants them, so the solver searches this grid
@@ -216,14 +218,26 @@ void runOrcaBench(const BenchOptions& options, const std::vector<std::int64_t>& 
           vx.swap(ox);
           vy.swap(oy);
           vz.swap(oz);
-          if (warm) {
-            warm = !threadsSettled() && std::chrono::duration<double>(Clock::now() - w0).count() < 3.0;
-            continue;
+          return g;
+        };
+        // warm-up: the first step sizes the scratch buffers; on a busy machine the warm-up lasts until the
+        // thread governor has chosen its team (at most 3 s), and then the run starts again, so that the
+        // same steps are timed whatever the governor did
+        step();
+        if (!threadsSettled()) {
+          for (const auto w0 = Clock::now();
+               !threadsSettled() && std::chrono::duration<double>(Clock::now() - w0).count() < 3.0;) {
+            step();
           }
-          ++s;
+          start();
+          step();
+        }
+        for (std::int64_t s = 0; s < steps; ++s) {
+          const double g = step();
           neighbours.push_back(solver.neighbourSeconds());
           lp.push_back(solver.lpSeconds());
           total.push_back(solver.neighbourSeconds() + solver.lpSeconds());
+          team.push_back(threadsInUse());
           grid.push_back(g);
           infeasible = solver.infeasibleCount();
         }
@@ -235,6 +249,7 @@ void runOrcaBench(const BenchOptions& options, const std::vector<std::int64_t>& 
       row.threads = threads;
       row.preprocessSeconds = median(pre);
       row.stepsPerSecond = 1.0 / median(total);
+      row.threadsUsed = median(team);
       row.nsPerAgentStep = 1e9 / (row.stepsPerSecond * static_cast<double>(n));
       row.steps = steps;
       row.modelInfo = Json::array({Json{{"neighbours_ms", 1e3 * median(neighbours)},
@@ -335,17 +350,21 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
         requestThreads(threads);
         const std::int64_t frames = options.frames > 0 ? options.frames : std::min<std::int64_t>(sc.frames, 10);
         std::int64_t steps = std::max<std::int64_t>(1, frames * sc.stepsPerFrame);
-        std::vector<double> pre, rate;
+        std::vector<double> pre, rate, team;
         Json info = Json::array();
         for (int r = 0; r < std::max(1, options.repeat); ++r) {
+          if (!threadsSettled()) {
+            // on a busy machine, steps of a run of its own until the thread governor has chosen its team
+            // (at most 3 s), so that the same steps are timed whatever the governor did
+            Simulation warm(sc);
+            for (const auto w0 = Clock::now();
+                 !threadsSettled() && std::chrono::duration<double>(Clock::now() - w0).count() < 3.0;) {
+              warm.step();
+            }
+          }
           Simulation sim(sc);
           pre.push_back(sim.preprocessSeconds());
           sim.step();  // warm-up: sizes scratch buffers
-          // on a busy machine, until the thread governor has chosen its team (at most 3 s)
-          for (const auto w0 = Clock::now();
-               !threadsSettled() && std::chrono::duration<double>(Clock::now() - w0).count() < 3.0;) {
-            sim.step();
-          }
           if (options.frames == 0 && r == 0) {
             // by default at least 0.1 s is timed: steps of a few agents are below the clock's resolution
             const auto w0 = Clock::now();
@@ -355,10 +374,15 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
               steps = std::min<std::int64_t>(1000000, static_cast<std::int64_t>(std::ceil(0.1 / std::max(one, 1e-9))));
             }
           }
+          long long teamSum = 0;
           const auto t0 = Clock::now();
-          for (std::int64_t k = 0; k < steps; ++k) sim.step();
+          for (std::int64_t k = 0; k < steps; ++k) {
+            sim.step();
+            teamSum += threadsInUse();
+          }
           const double s = std::chrono::duration<double>(Clock::now() - t0).count();
           rate.push_back(static_cast<double>(steps) / s);
+          team.push_back(static_cast<double>(teamSum) / static_cast<double>(steps));
           info = Json::array();
           for (std::size_t i = 0; i < sc.swarms.size(); ++i) {
             Json facts = sim.model(i).benchInfo();
@@ -378,6 +402,7 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
         row.threads = threads;
         row.preprocessSeconds = median(pre);
         row.stepsPerSecond = median(rate);
+        row.threadsUsed = median(team);
         row.nsPerAgentStep = 1e9 / (row.stepsPerSecond * static_cast<double>(row.agents));
         row.steps = steps;
         row.modelInfo = info;

@@ -27,6 +27,7 @@ struct BenchRow {
   double stepsPerSecond = 0.0;     // median
   double nsPerAgentStep = 0.0;     // from the median steps/s
   std::int64_t steps = 0;          // steps timed per repetition
+  double threadsUsed = 0.0;        // the thread team over the timed steps, averaged (median over repetitions)
   Json modelInfo;                  // per swarm, Model::benchInfo() (last repetition)
 };
 
