@@ -13,10 +13,10 @@
 //   radius  every point within k h (k = 2, h = sqrt(A / N) the sample spacing): F_con's
 //           Euclidean ball, which holds its Manhattan threshold
 //   both    the two at once: the model's one pass (grid), or the two queries per point (tree)
-// Grid: UniformGrid::build + forEachPointNeighbors + nearestKeys exactly as the model, cells
-// of the median K-th distance (knn), k h (radius) or the larger of the two (both), and
-// each point's widening hint 1.1 x its exact K-th distance (as from the last step; also
-// without, as in the model's first step).
+// Grid: UniformGrid::build + forEachPointNeighbors + blockKeys + nearestKeys as the model,
+// cells of the median K-th distance (knn), k h (radius) or the larger of the two (both), and
+// each point's search bound 1.1 x its exact K-th distance (standing in for the farthest of
+// the last step's K; also without, as in the model's first step).
 // Tree: build (leaf size 10 and 20; nanoflann 1.4 builds on one thread) + knnSearch
 // (K + 1: the point finds itself) / radiusSearch (unsorted) for every point, in parallel.
 // Both write one result per point (K-th distance or count), so neither is optimised away
@@ -27,6 +27,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <exception>
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -189,7 +190,13 @@ int main(int argc, char** argv) {
   std::printf("cpu: %s (%d logical CPUs)\n", cpuModel().c_str(), omp_get_num_procs());
   std::printf("nanoflann: NANOFLANN_VERSION 0x%x\n", NANOFLANN_VERSION);
 
-  const TriangleMesh mesh = loadObj(meshPath);
+  TriangleMesh mesh;
+  try {
+    mesh = loadObj(meshPath);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "knn_bench: %s (usage: knn_bench [MESH.obj [N,N,...]])\n", e.what());
+    return 2;
+  }
   const double area = surfaceArea(mesh);
   std::printf("points: %s samples (area %.1f m^2) + Gaussian %.1f m per axis; K = %zu within r_att = %.1f m; "
               "radius k h, k = %.0f\n",
@@ -296,24 +303,24 @@ int main(int argc, char** argv) {
       }
 
       // the grid as the shape model drives it: one pass over each cell's 27-cell neighbourhood
-      // collecting the keys within r_att, then nearestKeys (widening when fewer than K)
+      // collecting the keys within the bound where the block is complete that far, then nearestKeys
+      // (one search at the bound, or widening without one)
       const auto gridPass = [&](float cell, bool knn, bool radius, const std::vector<float>& hints) {
         forEachPointNeighbors(grid, cell, blocks, [&](std::uint32_t k, const CellBlock& block, std::size_t hits) {
           std::vector<std::uint64_t>& keys = keysOf[static_cast<std::size_t>(threadIndex())];
-          keys.clear();
           std::uint32_t within = 0;
           for (std::size_t hh = 0; hh < hits; ++hh) {
             const std::uint32_t b = block.hits[hh];
-            const std::uint32_t j = block.index[b];
-            if (j == k) continue;
-            const float d2 = block.d2[b];
-            within += d2 <= kh2 ? 1u : 0u;
-            if (knn && d2 <= rMax2) keys.push_back(neighbourKey(d2, j));
+            within += block.index[b] != k && block.d2[b] <= kh2 ? 1u : 0u;
           }
           std::uint32_t m = 0;
           if (knn) {
-            m = static_cast<std::uint32_t>(
-                nearestKeys(grid, k, K, cell, hints[grid.order()[k]], kRAtt, keys));
+            const float covered =
+                std::min(kRAtt, grid.coveredRadius(block, grid.sortedX()[k], grid.sortedY()[k], grid.sortedZ()[k]));
+            const float bound = hints[grid.order()[k]];
+            const float r = std::min(covered, bound > 0.0f ? bound : covered);
+            blockKeys(block, k, r, keys);
+            m = static_cast<std::uint32_t>(nearestKeys(grid, k, K, r, bound, kRAtt, keys));
             kth[k] = m > 0 ? keyDistance2(keys[m - 1]) : 0.0f;
           }
           count[k] = m + (radius ? within : 0u);

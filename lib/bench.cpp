@@ -133,6 +133,17 @@ void printRow(const BenchRow& row, const BenchOptions& options, std::ostream& ou
   out.flush();
 }
 
+// Steps (step() per call) until the thread governor has chosen its team, at most 3 s: on a busy
+// machine, before timing. Callers time a fresh run afterwards, so the same steps are timed whatever
+// the governor did.
+template <typename F>
+void untilSettled(F&& step) {
+  for (const auto w0 = Clock::now();
+       !threadsSettled() && std::chrono::duration<double>(Clock::now() - w0).count() < 3.0;) {
+    step();
+  }
+}
+
 // orca-100k: the ORCA solver alone (lib/orca, docs/orca.md), no model. 100,000
 // agents on a cubic lattice of spacing 4 m (47 per side, the top layer partly
 // filled), at rest, radius 1.5 m, maxNeighbors 10, neighborDistance 15 m, both
@@ -225,10 +236,7 @@ void runOrcaBench(const BenchOptions& options, const std::vector<std::int64_t>& 
         // same steps are timed whatever the governor did
         step();
         if (!threadsSettled()) {
-          for (const auto w0 = Clock::now();
-               !threadsSettled() && std::chrono::duration<double>(Clock::now() - w0).count() < 3.0;) {
-            step();
-          }
+          untilSettled(step);
           start();
           step();
         }
@@ -357,10 +365,7 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
             // on a busy machine, steps of a run of its own until the thread governor has chosen its team
             // (at most 3 s), so that the same steps are timed whatever the governor did
             Simulation warm(sc);
-            for (const auto w0 = Clock::now();
-                 !threadsSettled() && std::chrono::duration<double>(Clock::now() - w0).count() < 3.0;) {
-              warm.step();
-            }
+            untilSettled([&] { warm.step(); });
           }
           Simulation sim(sc);
           pre.push_back(sim.preprocessSeconds());

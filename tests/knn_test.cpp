@@ -3,8 +3,10 @@
 //
 // K nearest: driven exactly as the shape model drives it (models/shape/shape.cpp):
 // the grid built with some cell, one forEachPointNeighbors pass with radius =
-// that cell collecting the keys of every hit j != k within rMax, then
-// nearestKeys(grid, k, K, cell, hint, rMax, keys). The reference is nanoflann's
+// that cell, blockKeys collecting the block's points j != k within
+// min(rMax, coveredRadius), then nearestKeys(grid, k, K, that radius, hint,
+// rMax, keys); the hints include 1.1 times the exact K-th distance, a bound
+// like the one the model takes from the last step's neighbours. The reference is nanoflann's
 // knnSearch (K + 1, the point itself dropped) filtered to d2 <= rMax^2. Both
 // compute d2 in the same float arithmetic ((dx^2 + dy^2) + dz^2, the sign of
 // dx does not matter for its square), so the sets must agree exactly; only
@@ -127,15 +129,14 @@ GridRun gridNearest(const Cloud& c, float cell, std::size_t K, float rMax, const
   std::vector<CellBlock> blocks;
   std::vector<std::vector<std::uint64_t>> keysOf(static_cast<std::size_t>(swarmsim::threadCount()));
   swarmsim::forEachPointNeighbors(grid, cell, blocks, [&](std::uint32_t k, const CellBlock& block, std::size_t hits) {
+    // as the shape model does: the block's candidates as far as the block is complete about the point
+    (void)hits;
     std::vector<std::uint64_t>& keys = keysOf[static_cast<std::size_t>(swarmsim::threadIndex())];
-    keys.clear();
-    for (std::size_t h = 0; h < hits; ++h) {
-      const std::uint32_t b = block.hits[h];
-      const std::uint32_t j = block.index[b];
-      if (j != k && block.d2[b] <= rMax * rMax) keys.push_back(swarmsim::neighbourKey(block.d2[b], j));
-    }
+    const float covered =
+        std::min(rMax, grid.coveredRadius(block, grid.sortedX()[k], grid.sortedY()[k], grid.sortedZ()[k]));
+    swarmsim::blockKeys(block, k, covered, keys);
     const std::uint32_t i = order[k];
-    const std::size_t m = swarmsim::nearestKeys(grid, k, K, cell, hint[i], rMax, keys);
+    const std::size_t m = swarmsim::nearestKeys(grid, k, K, covered, hint[i], rMax, keys);
     auto& nn = run.nearest[i];  // each point writes only its own entry
     for (std::size_t q = 0; q < m; ++q) nn.push_back(order[swarmsim::keyIndex(keys[q])]);
   });

@@ -6,13 +6,19 @@
 // whose bits order as the float does) in the high half, its sorted position in
 // the grid in the low half, so keys sort by distance, ties by position.
 //
+// blockKeys(block, k, r, keys): the keys of the block's points j != k within r
+// of sorted point k, from the squared distances its last filter left in d2 (so
+// r should not exceed grid.coveredRadius(block, k's position), or points are
+// missed).
+//
 // nearestKeys(grid, k, K, r, hint, rMax, keys): `keys` holds the keys of every
 // point j != k within r of sorted point k (and within rMax), for example from
-// forEachPointNeighbors' cell-blocked pass. When they are fewer than K and
-// r < rMax it searches again from max(2 r, hint), doubling the radius up to rMax,
-// until K are found. It leaves the min(K, found) nearest, ascending, in
-// keys[0, m) and returns m. The result depends neither on r nor on hint (only
-// on the points), so a caller may pass any radius hint.
+// blockKeys. When they are fewer than K and r < rMax it searches again: at the
+// hint when that is beyond r (a radius expected to hold K, such as the K-th
+// distance of the last step, or a bound), else at 2 r, and doubles the radius
+// up to rMax until K are found. It leaves the min(K, found) nearest, ascending,
+// in keys[0, m) and returns m. The result depends neither on r nor on hint
+// (only on the points), so a caller may pass any radius hint.
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
@@ -35,13 +41,28 @@ inline float keyDistance2(std::uint64_t key) {
 }
 inline std::uint32_t keyIndex(std::uint64_t key) { return static_cast<std::uint32_t>(key); }
 
+inline std::size_t blockKeys(const CellBlock& block, std::uint32_t k, float r, std::vector<std::uint64_t>& keys) {
+  if (keys.size() < block.size) keys.resize(block.size + block.size / 2 + 16);  // grows rarely
+  const float r2 = r * r;
+  std::uint64_t* out = keys.data();
+  const float* d2 = block.d2.data();
+  const std::uint32_t* index = block.index.data();
+  std::size_t found = 0;
+  for (std::size_t b = 0; b < block.size; ++b) {  // branch-free compaction
+    out[found] = neighbourKey(d2[b], index[b]);
+    found += (d2[b] <= r2) & (index[b] != k) ? 1u : 0u;
+  }
+  keys.resize(found);
+  return found;
+}
+
 inline std::size_t nearestKeys(const UniformGrid& grid, std::uint32_t k, std::size_t K, float r, float hint, float rMax,
                                std::vector<std::uint64_t>& keys) {
   const float qx = grid.sortedX()[k], qy = grid.sortedY()[k], qz = grid.sortedZ()[k];
   const float rMax2 = rMax * rMax;
   if (keys.size() < K && r < rMax) {
     // the caller's pass covered r: start beyond it, at the hint if that is farther
-    r = std::min(rMax, std::max(2.0f * r, hint));
+    r = std::min(rMax, hint > r ? hint : 2.0f * r);
     for (;;) {
       keys.clear();
       grid.forEachNeighbor(qx, qy, qz, r, [&](std::uint32_t j, float, float, float, float d2) {

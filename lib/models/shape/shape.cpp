@@ -174,7 +174,7 @@ class ShapeModel final : public Model {
     if (g >= 0) {
       prepareGroup(static_cast<std::size_t>(g), assign.size());
       assign_ = std::move(assign);
-      ids_.clear();  // the samples by sorted position are no longer known
+      forgetSampleOrder();
     }
     group_ = g;
   }
@@ -194,7 +194,7 @@ class ShapeModel final : public Model {
       if (g >= 0) {
         prepareGroup(static_cast<std::size_t>(g), n);
         assignFrom(s, t);
-        ids_.clear();  // new samples: none is where last step left it
+        forgetSampleOrder();
       }
     }
 
@@ -283,47 +283,21 @@ class ShapeModel final : public Model {
                                   float covered) -> Vec3 {
       const float qx = sx[k], qy = sy[k], qz = sz[k];
       const std::uint32_t i = order[k];
-      const std::uint32_t* prev = prev_.data() + static_cast<std::size_t>(i) * K;
-      std::size_t m = 0;
+      float r = covered, hint = 1.1f * reach_[i] + reachSlack;
       if (prevCount_[i] == K) {
+        // the farthest of last step's K, now: K are within it, so the search goes there at once
+        const std::uint32_t* prev = prev_.data() + static_cast<std::size_t>(i) * K;
         float bound2 = 0.0f;
         for (std::size_t q = 0; q < K; ++q) {
           const std::uint32_t j = posOfIndex_[prev[q]];
           const float dx = sx[j] - qx, dy = sy[j] - qy, dz = sz[j] - qz;
           bound2 = std::max(bound2, dx * dx + dy * dy + dz * dz);
         }
-        bound2 = std::min(bound2 * (1.0f + 1e-5f), rAtt * rAtt);  // a superset is harmless: float slack
-        std::size_t found = 0;
-        if (bound2 <= covered * covered) {
-          // branch-free compaction of the block's candidates within the bound (the filter left their
-          // squared distances in d2)
-          if (keys.size() < block.size) keys.resize(block.size + block.size / 2 + 16);  // grows rarely
-          std::uint64_t* out = keys.data();
-          const float* d2 = block.d2.data();
-          const std::uint32_t* index = block.index.data();
-          for (std::size_t b = 0; b < block.size; ++b) {
-            out[found] = neighbourKey(d2[b], index[b]);
-            found += (d2[b] <= bound2) & (index[b] != k) ? 1u : 0u;
-          }
-        } else {
-          keys.clear();
-          grid_.forEachNeighbor(qx, qy, qz, std::sqrt(bound2), [&](std::uint32_t j, float, float, float, float d2) {
-            if (j != k && d2 <= bound2) keys.push_back(neighbourKey(d2, j));
-          });
-          found = keys.size();
-        }
-        m = std::min(K, found);
-        const auto first = keys.begin();
-        if (found > K) std::nth_element(first, first + static_cast<std::ptrdiff_t>(K), first + static_cast<std::ptrdiff_t>(found));
-        std::sort(first, first + static_cast<std::ptrdiff_t>(m));
-      } else {
-        keys.clear();
-        const float c2 = covered * covered;
-        for (std::size_t b = 0; b < block.size; ++b) {
-          if (block.d2[b] <= c2 && block.index[b] != k) keys.push_back(neighbourKey(block.d2[b], block.index[b]));
-        }
-        m = nearestKeys(grid_, static_cast<std::uint32_t>(k), K, covered, 1.1f * reach_[i] + reachSlack, rAtt, keys);
+        hint = std::min(std::sqrt(bound2) * (1.0f + 1e-5f), rAtt);  // a larger radius is harmless: float slack
+        r = std::min(r, hint);
       }
+      blockKeys(block, static_cast<std::uint32_t>(k), r, keys);
+      const std::size_t m = nearestKeys(grid_, static_cast<std::uint32_t>(k), K, r, hint, rAtt, keys);
       // for the next step, whose state index is this step's sorted position
       reachNext_[k] = m == K ? std::sqrt(keyDistance2(keys[m - 1])) : rAtt;
       prevCountNext_[k] = static_cast<std::uint32_t>(m);
@@ -547,6 +521,9 @@ class ShapeModel final : public Model {
   static Vec3 place(const Vec3& p, const Eigen::Matrix3f& rot, const Vec3& shift, const Vec3& pivot) {
     return shift == Vec3::Zero() && pivot == Vec3::Zero() ? p : Vec3(shift + rot * (p - pivot));
   }
+  // after a new assignment: no insect's sample is where last step left it, so the next step takes every
+  // one through its id (last step's ids are what tells it where the state is as last step wrote it)
+  void forgetSampleOrder() { ids_.clear(); }
   Vec3 targetOf(std::uint32_t i, std::size_t a, std::size_t b, float f, const Eigen::Matrix3f& rot, const Vec3& shift,
                 const Vec3& pivot) const {
     const Vec3& pa = keyPos_[a][i];
