@@ -26,6 +26,12 @@ namespace swarmsim {
 
 constexpr std::size_t kLanes = 8;
 
+// set bits of an 8-lane mask (__builtin_popcount is a library call on x86-64 without POPCNT)
+inline int laneCount(unsigned mask) {
+  static constexpr std::uint8_t kNibble[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
+  return kNibble[mask & 15u] + kNibble[(mask >> 4) & 15u];
+}
+
 #if SWARMSIM_X86_LANES
 struct SseLanes {
   struct V {
@@ -44,7 +50,7 @@ struct SseLanes {
   static V band(V x, V y) { return {_mm_and_ps(x.a, y.a), _mm_and_ps(x.b, y.b)}; }
   static V andnot(V x, V y) { return {_mm_andnot_ps(x.a, y.a), _mm_andnot_ps(x.b, y.b)}; }  // ~x & y
   static int count(V m) {
-    return __builtin_popcount(static_cast<unsigned>(_mm_movemask_ps(m.a) | (_mm_movemask_ps(m.b) << 4)));
+    return laneCount(static_cast<unsigned>(_mm_movemask_ps(m.a) | (_mm_movemask_ps(m.b) << 4)));
   }
   static void store(float* p, V x) {
     _mm_storeu_ps(p, x.a);
@@ -85,7 +91,7 @@ struct AvxLanes {
   SWARMSIM_AVX static V le(V x, V y) { return {_mm256_cmp_ps(x.a, y.a, _CMP_LE_OQ)}; }
   SWARMSIM_AVX static V band(V x, V y) { return {_mm256_and_ps(x.a, y.a)}; }
   SWARMSIM_AVX static V andnot(V x, V y) { return {_mm256_andnot_ps(x.a, y.a)}; }
-  SWARMSIM_AVX static int count(V m) { return __builtin_popcount(static_cast<unsigned>(_mm256_movemask_ps(m.a))); }
+  SWARMSIM_AVX static int count(V m) { return laneCount(static_cast<unsigned>(_mm256_movemask_ps(m.a))); }
   SWARMSIM_AVX static void store(float* p, V x) { _mm256_storeu_ps(p, x.a); }
   SWARMSIM_AVX static void fold4(V x, float* p) {
     _mm_storeu_ps(p, _mm_add_ps(_mm256_castps256_ps128(x.a), _mm256_extractf128_ps(x.a, 1)));

@@ -56,7 +56,7 @@ struct CellBlock {
       const __m128i packed = _mm_add_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(kPackedLanes[mask])),
                                            _mm_set1_epi32(static_cast<int>(j)));
       _mm_storeu_si128(reinterpret_cast<__m128i*>(h + m), packed);
-      m += static_cast<std::size_t>(__builtin_popcount(mask));
+      m += kLaneCount[mask];
     }
 #endif
     for (; j < size; ++j) {  // branch-free compaction
@@ -72,6 +72,8 @@ struct CellBlock {
       {0, 0, 0, 0}, {0, 0, 0, 0}, {1, 0, 0, 0}, {0, 1, 0, 0}, {2, 0, 0, 0}, {0, 2, 0, 0}, {1, 2, 0, 0},
       {0, 1, 2, 0}, {3, 0, 0, 0}, {0, 3, 0, 0}, {1, 3, 0, 0}, {0, 1, 3, 0}, {2, 3, 0, 0}, {0, 2, 3, 0},
       {1, 2, 3, 0}, {0, 1, 2, 3}};
+  // set lanes per 4-lane mask (__builtin_popcount is a library call on x86-64 without POPCNT)
+  static constexpr std::uint8_t kLaneCount[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
 #endif
 };
 
