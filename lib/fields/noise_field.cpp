@@ -1,5 +1,6 @@
 #include "fields/noise_field.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "geometry/obstacles.hpp"
@@ -37,14 +38,20 @@ NoiseField::NoiseField(NoiseFieldKind kind, const NoiseParams& params, const Aab
   }
 }
 
+bool NoiseField::exactCurlAt(const Vec3& x) const {
+  // the blend is 1 over the whole difference stencil (the trilinear distance changes by at most sqrt(3) per metre)
+  return !boundary_ || boundary_->sample(x) >= potential_->d0() + 1.7320508 * step_;
+}
+
 Vec3 NoiseField::evaluate(const Vec3& x) const {
   const Vec3d p = x.cast<double>();
   if (kind_ == NoiseFieldKind::kPerlin) return (potential_->noise(p) * gain_).cast<float>();
-  // away from the boundary (the blend is 1 over the whole difference stencil: the trilinear
-  // distance changes by at most sqrt(3) per metre) the curl is exact, from the noises' gradients
-  if (!boundary_ || boundary_->sample(x) >= potential_->d0() + 1.7320508 * step_) {
-    return potential_->curlRaw(p).cast<float>();
-  }
+  // away from the boundary the curl is exact, from the noises' gradients
+  if (exactCurlAt(x)) return potential_->curlRaw(p).cast<float>();
+  return blendedCurl(p);
+}
+
+Vec3 NoiseField::blendedCurl(const Vec3d& p) const {
   Vec3d d[3];  // d[a] = ∂N/∂x_a
   for (int a = 0; a < 3; ++a) {
     Vec3d e = Vec3d::Zero();
@@ -52,6 +59,52 @@ Vec3 NoiseField::evaluate(const Vec3& x) const {
     d[a] = ((*potential_)(p + e, boundary_) - (*potential_)(p - e, boundary_)) / (2.0 * step_);
   }
   return Vec3d(d[1].z() - d[2].y(), d[2].x() - d[0].z(), d[0].y() - d[1].x()).cast<float>();
+}
+
+void NoiseField::evaluateBatch(const float* x, const float* y, const float* z, std::size_t n, float* ox, float* oy,
+                               float* oz) const {
+  if (!direct_ || kind_ != NoiseFieldKind::kCurl) {
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vec3 v = (*this)(Vec3(x[i], y[i], z[i]));
+      ox[i] = v.x();
+      oy[i] = v.y();
+      oz[i] = v.z();
+    }
+    return;
+  }
+  // blocks of points: first the boundary test of each (the distance samples are independent, so their cache
+  // misses overlap), then the differences near the boundary one point at a time and the exact curl of the
+  // others on SIMD lanes
+  constexpr std::size_t kBlock = 64;
+  const bool avx = PerlinNoise3::batchAvx();
+  bool exact[kBlock];
+  double px[kBlock], py[kBlock], pz[kBlock], cx[kBlock], cy[kBlock], cz[kBlock];
+  std::size_t slot[kBlock];
+  for (std::size_t start = 0; start < n; start += kBlock) {
+    const std::size_t m = std::min(kBlock, n - start);
+    for (std::size_t j = 0; j < m; ++j) exact[j] = exactCurlAt(Vec3(x[start + j], y[start + j], z[start + j]));
+    std::size_t k = 0;
+    for (std::size_t j = 0; j < m; ++j) {
+      const std::size_t i = start + j;
+      if (exact[j]) {
+        px[k] = static_cast<double>(x[i]);
+        py[k] = static_cast<double>(y[i]);
+        pz[k] = static_cast<double>(z[i]);
+        slot[k++] = i;
+        continue;
+      }
+      const Vec3 v = blendedCurl(Vec3(x[i], y[i], z[i]).cast<double>());
+      ox[i] = v.x();
+      oy[i] = v.y();
+      oz[i] = v.z();
+    }
+    potential_->curlRawBatch(px, py, pz, k, cx, cy, cz, avx);
+    for (std::size_t q = 0; q < k; ++q) {
+      ox[slot[q]] = static_cast<float>(cx[q]);
+      oy[slot[q]] = static_cast<float>(cy[q]);
+      oz[slot[q]] = static_cast<float>(cz[q]);
+    }
+  }
 }
 
 }  // namespace swarmsim

@@ -12,6 +12,7 @@
 // (curl_noise.hpp, eq. 2-3 of wang2014), so it flows along them rather than
 // into them.
 #include <array>
+#include <cstddef>
 #include <memory>
 
 #include "core/vec.hpp"
@@ -35,11 +36,20 @@ class NoiseField {
 
   // the field at x (m/s)
   Vec3 operator()(const Vec3& x) const { return direct_ ? evaluate(x) : grid_.sample(x); }
+  // the field at the n points (x[i], y[i], z[i]) into (ox[i], oy[i], oz[i]), equal bit for bit to operator() at
+  // each; direct curl noise away from the boundary (the exact curl) takes PerlinNoise3::kLanes points at a time
+  // on SIMD lanes (AVX where the CPU has it and SWARMSIM_NO_AVX is unset), every other point operator()
+  void evaluateBatch(const float* x, const float* y, const float* z, std::size_t n, float* ox, float* oy,
+                     float* oz) const;
   bool direct() const { return direct_; }
   const GridSpec& spec() const { return grid_.spec; }
 
  private:
   Vec3 evaluate(const Vec3& x) const;
+  // direct curl: whether x is far enough from the boundary for the exact curl (evaluate's test)
+  bool exactCurlAt(const Vec3& x) const;
+  // direct curl near the boundary: central differences of the blended potential at p
+  Vec3 blendedCurl(const Vec3d& p) const;
 
   NoiseFieldKind kind_ = NoiseFieldKind::kCurl;
   bool direct_ = false;
