@@ -298,3 +298,32 @@ TEST_CASE("NoiseField::evaluateBatch equals operator() on a grid and for Perlin 
     checkBatch(perlin, p);
   }
 }
+
+TEST_CASE("Direct curl noise is the exact curl exactly where the boundary distance allows it", "[noise][fields]") {
+  // evaluate() decides by the distance sample, after a coarse lower bound of it (NoiseField's floor_): the
+  // bound must never claim a point the sample would not
+  const Scene scene;
+  const NoiseParams np = testParams();
+  const NoiseField field(NoiseFieldKind::kCurl, np, scene.domain, scene.obstacles, {0, 0, 0}, &scene.boundary, 1.0);
+  REQUIRE(field.direct());
+  const swarmsim::NoisePotential potential(np);
+  const double exactFrom = np.d0 + 1.7320508 * (0.1 * np.unit / (3.0 * np.scale));  // d0 + sqrt(3) stencil steps
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0), shell(exactFrom - 0.05, exactFrom + 0.05);
+  std::vector<Vec3> points;
+  for (int i = 0; i < 20000; ++i) {
+    const Vec3d dir = Vec3d(u(rng), u(rng), u(rng)).normalized();
+    points.push_back((Vec3d(3, -2, 1) + dir * (6.0 + shell(rng))).cast<float>());  // about the sphere's threshold
+    points.push_back(Vec3d(20 * u(rng), 20 * u(rng), 20 * u(rng)).cast<float>());  // anywhere
+  }
+  int exact = 0, near = 0, wrong = 0;
+  for (const Vec3& x : points) {
+    const bool far = static_cast<double>(scene.boundary.sample(x)) >= exactFrom;
+    const bool isExact = field(x) == potential.curlRaw(x.cast<double>()).cast<float>();
+    (far ? exact : near) += 1;
+    wrong += far != isExact ? 1 : 0;
+  }
+  CHECK(wrong == 0);
+  CHECK(exact > 5000);
+  CHECK(near > 5000);
+}

@@ -14,6 +14,7 @@
 #include <array>
 #include <cstddef>
 #include <memory>
+#include <vector>
 
 #include "core/vec.hpp"
 #include "core/world.hpp"
@@ -48,6 +49,7 @@ class NoiseField {
   Vec3 evaluate(const Vec3& x) const;
   // direct curl: whether x is far enough from the boundary for the exact curl (evaluate's test)
   bool exactCurlAt(const Vec3& x) const;
+  void buildFloor();
   // direct curl near the boundary: central differences of the blended potential at p
   Vec3 blendedCurl(const Vec3d& p) const;
 
@@ -58,6 +60,12 @@ class NoiseField {
   const Grid3<float>* boundary_ = nullptr;
   double step_ = 0.0;  // central-difference step of direct curl, m
   double gain_ = 1.0;  // direct Perlin: the gain (the potential carries it for curl)
+  // direct curl with a boundary: a lower bound of boundary_->sample over each block of kFloorBlock^3 base
+  // cells (a cache-sized summary of the distance grid: most points pass exactCurlAt on it alone)
+  static constexpr int kFloorBlock = 8;
+  std::vector<float> floor_;
+  std::array<int, 3> floorDims_ = {0, 0, 0};
+  double exactFrom_ = 0.0;  // the distance from which the curl is exact
 };
 
 }  // namespace swarmsim
