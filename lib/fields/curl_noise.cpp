@@ -1,5 +1,6 @@
 #include "fields/curl_noise.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -79,6 +80,38 @@ Vec3d NoisePotential::curlRaw(const Vec3d& x) const {
   for (int c = 0; c < 3; ++c) perlin_[c].withGradient(u, g[c]);
   // ∂P_c/∂x_a = potentialFactor · frequency · ∂P_c/∂u_a = gain · ∂P_c/∂u_a
   return Vec3d(g[2].y() - g[1].z(), g[0].z() - g[2].x(), g[1].x() - g[0].y()) * params_.gain;
+}
+
+void NoisePotential::curlRawBatch(const double* x, const double* y, const double* z, std::size_t n, double* cx,
+                                  double* cy, double* cz, bool avx) const {
+  constexpr std::size_t L = PerlinNoise3::kLanes;
+  // a chunk's lattice coordinates are all written before the lanes load them (a vector load of values just
+  // stored one by one would wait for the stores); the last batch of lanes is padded with the chunk's first point
+  constexpr std::size_t kChunk = 64;
+  static_assert(kChunk % L == 0, "chunks of whole batches");
+  double u[3][kChunk];
+  for (std::size_t start = 0; start < n; start += kChunk) {
+    const std::size_t m = std::min(kChunk, n - start);
+    for (std::size_t i = 0; i < m; ++i) {
+      u[0][i] = x[start + i] * frequency_;
+      u[1][i] = y[start + i] * frequency_;
+      u[2][i] = z[start + i] * frequency_;
+    }
+    for (std::size_t i = m; i % L != 0; ++i) {
+      for (auto& ua : u) ua[i] = ua[0];
+    }
+    for (std::size_t i = 0; i < m; i += L) {
+      double g[3][3][L];  // g[a][c][l] = ∂P_c/∂u_a at point i + l, curlRaw's g[c][a]
+      PerlinNoise3::withGradientLanes(perlin_.data(), 3, u[0] + i, u[1] + i, u[2] + i, nullptr, g[0][0], g[1][0],
+                                      g[2][0], avx);
+      for (std::size_t l = 0; l < L && i + l < m; ++l) {
+        const std::size_t k = start + i + l;
+        cx[k] = (g[1][2][l] - g[2][1][l]) * params_.gain;
+        cy[k] = (g[2][0][l] - g[0][2][l]) * params_.gain;
+        cz[k] = (g[0][1][l] - g[1][0][l]) * params_.gain;
+      }
+    }
+  }
 }
 
 Vec3d NoisePotential::operator()(const Vec3d& x, const Grid3<float>* sdf) const {

@@ -17,6 +17,7 @@
 // The discrete curl uses central differences, whose operators commute, so the central
 // divergence of the discrete curl vanishes (up to rounding) two cells away from the border.
 #include <array>
+#include <cstddef>
 #include <cstdint>
 
 #include "core/vec.hpp"
@@ -50,6 +51,10 @@ class NoisePotential {
   Vec3d operator()(const Vec3d& x, const Grid3<float>* sdf) const;
   // ∇ × P(x), exact (from the noises' analytic gradients): the curl where the blend is 1
   Vec3d curlRaw(const Vec3d& x) const;
+  // curlRaw at the n points (x[i], y[i], z[i]) into (cx[i], cy[i], cz[i]), equal to it bit for bit, computed
+  // PerlinNoise3::kLanes points at a time on SIMD lanes (avx as in PerlinNoise3::withGradientLanes)
+  void curlRawBatch(const double* x, const double* y, const double* z, std::size_t n, double* cx, double* cy,
+                    double* cz, bool avx) const;
   double d0() const { return params_.d0; }
 
  private:

@@ -2,7 +2,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
 #include <utility>
+
+#if defined(__GNUC__) && defined(__x86_64__)
+#define SWARMSIM_X86_LANES 1
+#define SWARMSIM_AVX __attribute__((target("avx")))
+#endif
 
 namespace swarmsim {
 
@@ -26,14 +34,184 @@ constexpr double kGrad[16][3] = {
 // 1 / (largest reachable magnitude, 1.036354, rounded up): see noise.hpp
 constexpr double kNormalize = 1.0 / 1.0364;
 
-inline double fade(double t) { return t * t * t * (t * (t * 6.0 - 15.0) + 10.0); }
-inline double lerp(double a, double b, double t) { return a + t * (b - a); }
-inline double dotGrad(int hash, double x, double y, double z) {
-  const double* g = kGrad[hash & 15];
-  return g[0] * x + g[1] * y + g[2] * z;
+// The arithmetic below is written once for one point (T = double) and for a batch of points, one per lane of
+// a GCC vector (T = V4 or V2): IEEE addition, subtraction and multiplication are exactly rounded per lane, so the
+// same operations in the same order give withGradientLanes the bits of withGradient. This file is compiled
+// with -ffp-contract=off (lib/CMakeLists.txt): with FMA available (-march=native) the compiler could otherwise
+// fuse a multiply and an add in one path and not in the other.
+//
+// A batch of PerlinNoise3::kLanes points is one V4 (an AVX register: the entry with target("avx")) or, without
+// AVX, two halves of one V2 (an SSE2 register) each: a V4 there would take two registers per value, and the
+// blend's values would no longer fit in the 16 registers (that spilling made the SSE2 batch a third slower).
+// The functions taking vectors are internal and inlined (flatten) into each entry, so no call passes a 32-byte
+// vector, whose ABI would depend on AVX (-Wno-psabi, lib/CMakeLists.txt, silences GCC's note about that ABI).
+typedef double V4 __attribute__((vector_size(32)));
+typedef double V2 __attribute__((vector_size(16)));
+static_assert(PerlinNoise3::kLanes == 4, "V4 holds one batch");
+
+template <typename T>
+inline T fade(T t) {
+  return t * t * t * (t * (t * 6.0 - 15.0) + 10.0);
+}
+template <typename T>
+inline T dfade(T t) {  // fade'(t) = 30 t^2 (t - 1)^2
+  return 30.0 * t * t * (t - 1.0) * (t - 1.0);
+}
+template <typename T>
+inline T lerp(T a, T b, T t) {
+  return a + t * (b - a);
+}
+// g · (tx, ty, tz) for a corner gradient g (three doubles, or three lanes)
+template <typename G, typename T>
+inline T dot(const G& g, T tx, T ty, T tz) {
+  return g[0] * tx + g[1] * ty + g[2] * tz;
+}
+inline double dotGrad(int hash, double x, double y, double z) { return dot(kGrad[hash & 15], x, y, z); }
+
+// the lattice cell index along an axis, wrapped to the table's period, from the floor of the coordinate
+inline int wrapCell(double f) { return static_cast<int>(static_cast<long long>(f) & 255); }
+
+// the gradients at the 8 corners of cell (X, Y, Z), in the order of blend()
+inline void cornerGradients(const std::uint8_t* perm, int X, int Y, int Z, const double* G[8]) {
+  const int a = perm[X] + Y, aa = perm[a] + Z, ab = perm[a + 1] + Z;
+  const int b = perm[X + 1] + Y, ba = perm[b] + Z, bb = perm[b + 1] + Z;
+  G[0] = kGrad[perm[aa] & 15];
+  G[1] = kGrad[perm[ba] & 15];
+  G[2] = kGrad[perm[ab] & 15];
+  G[3] = kGrad[perm[bb] & 15];
+  G[4] = kGrad[perm[aa + 1] & 15];
+  G[5] = kGrad[perm[ba + 1] & 15];
+  G[6] = kGrad[perm[ab + 1] & 15];
+  G[7] = kGrad[perm[bb + 1] & 15];
+}
+
+// withGradient's interpolation and its derivative, the value normalised but not clamped. G[c][a]: component a
+// of the gradient at corner c, the corners named by (c_x, c_y, c_z) in the order 000, 100, 010, 110, 001, 101,
+// 011, 111; (x, y, z) the offset in the cell, (u, v, w) its fades and (du, dv, dw) their derivatives.
+template <typename T, typename Corners>
+inline T blend(const Corners& G, T x, T y, T z, T u, T v, T w, T du, T dv, T dw, T grad[3]) {
+  // corner values g = G · (t − c)
+  const T g000 = dot(G[0], x, y, z), g100 = dot(G[1], x - 1.0, y, z);
+  const T g010 = dot(G[2], x, y - 1.0, z), g110 = dot(G[3], x - 1.0, y - 1.0, z);
+  const T g001 = dot(G[4], x, y, z - 1.0), g101 = dot(G[5], x - 1.0, y, z - 1.0);
+  const T g011 = dot(G[6], x, y - 1.0, z - 1.0), g111 = dot(G[7], x - 1.0, y - 1.0, z - 1.0);
+
+  // the same blend as operator() (so the values agree bit for bit)
+  const T x00 = lerp(g000, g100, u), x10 = lerp(g010, g110, u);
+  const T x01 = lerp(g001, g101, u), x11 = lerp(g011, g111, u);
+  const T y0 = lerp(x00, x10, v), y1 = lerp(x01, x11, v);
+  const T value = lerp(y0, y1, w) * kNormalize;
+
+  // d/dt of the blend: the weights' derivatives times the corner values, plus
+  // the weights times the corner gradients
+  const T dx00 = g100 - g000, dx10 = g110 - g010, dx01 = g101 - g001, dx11 = g111 - g011;
+  const T dy0 = x10 - x00, dy1 = x11 - x01;
+  const T dValue[3] = {
+      du * lerp(lerp(dx00, dx10, v), lerp(dx01, dx11, v), w),
+      dv * lerp(dy0, dy1, w),
+      dw * (y1 - y0),
+  };
+  for (int c = 0; c < 3; ++c) {
+    const T l00 = lerp(G[0][c], G[1][c], u), l10 = lerp(G[2][c], G[3][c], u);
+    const T l01 = lerp(G[4][c], G[5][c], u), l11 = lerp(G[6][c], G[7][c], u);
+    grad[c] = (dValue[c] + lerp(lerp(l00, l10, v), lerp(l01, l11, v), w)) * kNormalize;
+  }
+  return value;
+}
+
+template <typename V>
+inline V load(const double* p) {
+  V v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+template <typename V>
+inline void store(double* p, V v) {
+  std::memcpy(p, &v, sizeof v);
+}
+// std::floor per lane, exactly, in plain arithmetic (SSE2 has no rounding instruction, and a libm call per
+// lane would cost more than the lane saves): for |t| < 2^52, (t + c) − c with c = 2^52 of t's sign is t
+// rounded to an integer, one too high where it rounded up. floor(t) has the sign of t, −0 for −0 included,
+// which that sum turns into +0: t's sign bit is put back (a no-op on the nonzero results). Larger |t|,
+// infinities and NaN are their own floor.
+template <typename V>
+inline V floorLanes(V t) {
+  using I = decltype(t < t);  // 64-bit integer lanes, for the bits
+  constexpr std::int64_t kSign = std::numeric_limits<std::int64_t>::min();
+  constexpr std::int64_t kTwo52 = 0x4330000000000000;  // the bits of 2^52
+  const I bits = __builtin_bit_cast(I, t);
+  const I sign = bits & kSign;
+  const V c = __builtin_bit_cast(V, sign | kTwo52);
+  V r = (t + c) - c;
+  r = r > t ? r - 1.0 : r;
+  r = __builtin_bit_cast(V, __builtin_bit_cast(I, r) | sign);
+  return __builtin_bit_cast(V, bits & ~kSign) < 0x1p52 ? r : t;
 }
 
 }  // namespace
+
+// withGradientLanes' body, inlined (flatten) into one entry per instruction set
+struct PerlinNoise3::Lanes {
+  // the batch's lanes first, ..., first + width - 1 (width: the doubles in V)
+  template <typename V>
+  static void run(const PerlinNoise3* noises, int count, const double* px, const double* py, const double* pz,
+                  double* value, double* gx, double* gy, double* gz, int first) {
+    constexpr int W = sizeof(V) / sizeof(double);
+    // what depends on the points only: the cells, the offsets in them, the fades and their derivatives
+    const V p[3] = {load<V>(px + first), load<V>(py + first), load<V>(pz + first)};
+    int cell[3][W];
+    V t[3], f[3], df[3];
+    for (int a = 0; a < 3; ++a) {
+      const V fl = floorLanes(p[a]);
+      for (int l = 0; l < W; ++l) cell[a][l] = wrapCell(fl[l]);
+      t[a] = p[a] - fl;
+      f[a] = fade(t[a]);
+      df[a] = dfade(t[a]);
+    }
+    double* const out[3] = {gx, gy, gz};
+    for (int k = 0; k < count; ++k) {
+      // the corner gradients, looked up per lane: g[l][c], corner c of point l
+      const std::uint8_t* perm = noises[k].perm_.data();
+      const double* g[W][8];
+      for (int l = 0; l < W; ++l) cornerGradients(perm, cell[0][l], cell[1][l], cell[2][l], g[l]);
+      // (vectors built whole: GCC takes lanes assigned one by one for possibly uninitialised reads)
+      const auto lanes = [&g](int c, int a) {
+        if constexpr (W == 4) {
+          return V{g[0][c][a], g[1][c][a], g[2][c][a], g[3][c][a]};
+        } else {
+          return V{g[0][c][a], g[1][c][a]};
+        }
+      };
+      const V G[8][3] = {
+          {lanes(0, 0), lanes(0, 1), lanes(0, 2)}, {lanes(1, 0), lanes(1, 1), lanes(1, 2)},
+          {lanes(2, 0), lanes(2, 1), lanes(2, 2)}, {lanes(3, 0), lanes(3, 1), lanes(3, 2)},
+          {lanes(4, 0), lanes(4, 1), lanes(4, 2)}, {lanes(5, 0), lanes(5, 1), lanes(5, 2)},
+          {lanes(6, 0), lanes(6, 1), lanes(6, 2)}, {lanes(7, 0), lanes(7, 1), lanes(7, 2)},
+      };
+      V grad[3];
+      const V v = blend(G, t[0], t[1], t[2], f[0], f[1], f[2], df[0], df[1], df[2], grad);
+      const int at = k * kLanes + first;
+      for (int a = 0; a < 3; ++a) store(out[a] + at, grad[a]);
+      if (value) {
+        for (int l = 0; l < W; ++l) value[at + l] = std::clamp(v[l], -1.0, 1.0);
+      }
+    }
+  }
+
+  __attribute__((flatten)) static void baseline(const PerlinNoise3* noises, int count, const double* px,
+                                                const double* py, const double* pz, double* value, double* gx,
+                                                double* gy, double* gz) {
+    run<V2>(noises, count, px, py, pz, value, gx, gy, gz, 0);
+    run<V2>(noises, count, px, py, pz, value, gx, gy, gz, 2);
+  }
+#if SWARMSIM_X86_LANES
+  SWARMSIM_AVX __attribute__((flatten)) static void avx(const PerlinNoise3* noises, int count, const double* px,
+                                                        const double* py, const double* pz, double* value, double* gx,
+                                                        double* gy, double* gz) {
+    run<V4>(noises, count, px, py, pz, value, gx, gy, gz, 0);
+  }
+#endif
+};
 
 PerlinNoise3::PerlinNoise3(std::uint64_t seed) {
   // Fisher–Yates shuffle of 0..255 (modulo bias of a 64-bit draw is below 2^-55)
@@ -50,9 +228,7 @@ PerlinNoise3::PerlinNoise3(std::uint64_t seed) {
 double PerlinNoise3::operator()(const Vec3d& p) const {
   // lattice cell (wrapped to the table's period) and offset inside it
   const double fx = std::floor(p.x()), fy = std::floor(p.y()), fz = std::floor(p.z());
-  const int X = static_cast<int>(static_cast<long long>(fx) & 255);
-  const int Y = static_cast<int>(static_cast<long long>(fy) & 255);
-  const int Z = static_cast<int>(static_cast<long long>(fz) & 255);
+  const int X = wrapCell(fx), Y = wrapCell(fy), Z = wrapCell(fz);
   const double x = p.x() - fx, y = p.y() - fy, z = p.z() - fz;
   const double u = fade(x), v = fade(y), w = fade(z);
 
@@ -71,52 +247,34 @@ double PerlinNoise3::operator()(const Vec3d& p) const {
 
 double PerlinNoise3::withGradient(const Vec3d& p, Vec3d& grad) const {
   const double fx = std::floor(p.x()), fy = std::floor(p.y()), fz = std::floor(p.z());
-  const int X = static_cast<int>(static_cast<long long>(fx) & 255);
-  const int Y = static_cast<int>(static_cast<long long>(fy) & 255);
-  const int Z = static_cast<int>(static_cast<long long>(fz) & 255);
   const double x = p.x() - fx, y = p.y() - fy, z = p.z() - fz;
-  const double u = fade(x), v = fade(y), w = fade(z);
-  const auto dfade = [](double t) { return 30.0 * t * t * (t - 1.0) * (t - 1.0); };
-  const double du = dfade(x), dv = dfade(y), dw = dfade(z);
-
-  const int a = perm_[X] + Y, aa = perm_[a] + Z, ab = perm_[a + 1] + Z;
-  const int b = perm_[X + 1] + Y, ba = perm_[b] + Z, bb = perm_[b + 1] + Z;
-  // corner gradients G and values g = G · (t − c), corners named by (c_x, c_y, c_z)
-  const double* G000 = kGrad[perm_[aa] & 15];
-  const double* G100 = kGrad[perm_[ba] & 15];
-  const double* G010 = kGrad[perm_[ab] & 15];
-  const double* G110 = kGrad[perm_[bb] & 15];
-  const double* G001 = kGrad[perm_[aa + 1] & 15];
-  const double* G101 = kGrad[perm_[ba + 1] & 15];
-  const double* G011 = kGrad[perm_[ab + 1] & 15];
-  const double* G111 = kGrad[perm_[bb + 1] & 15];
-  const auto dot = [](const double* g, double tx, double ty, double tz) { return g[0] * tx + g[1] * ty + g[2] * tz; };
-  const double g000 = dot(G000, x, y, z), g100 = dot(G100, x - 1, y, z);
-  const double g010 = dot(G010, x, y - 1, z), g110 = dot(G110, x - 1, y - 1, z);
-  const double g001 = dot(G001, x, y, z - 1), g101 = dot(G101, x - 1, y, z - 1);
-  const double g011 = dot(G011, x, y - 1, z - 1), g111 = dot(G111, x - 1, y - 1, z - 1);
-
-  // the same blend as operator() (so the values agree bit for bit)
-  const double x00 = lerp(g000, g100, u), x10 = lerp(g010, g110, u);
-  const double x01 = lerp(g001, g101, u), x11 = lerp(g011, g111, u);
-  const double y0 = lerp(x00, x10, v), y1 = lerp(x01, x11, v);
-  const double value = lerp(y0, y1, w) * kNormalize;
-
-  // d/dt of the blend: the weights' derivatives times the corner values, plus
-  // the weights times the corner gradients
-  const double dx00 = g100 - g000, dx10 = g110 - g010, dx01 = g101 - g001, dx11 = g111 - g011;
-  const double dy0 = x10 - x00, dy1 = x11 - x01;
-  const double dValue[3] = {
-      du * lerp(lerp(dx00, dx10, v), lerp(dx01, dx11, v), w),
-      dv * lerp(dy0, dy1, w),
-      dw * (y1 - y0),
-  };
-  for (int c = 0; c < 3; ++c) {
-    const double l00 = lerp(G000[c], G100[c], u), l10 = lerp(G010[c], G110[c], u);
-    const double l01 = lerp(G001[c], G101[c], u), l11 = lerp(G011[c], G111[c], u);
-    grad[c] = (dValue[c] + lerp(lerp(l00, l10, v), lerp(l01, l11, v), w)) * kNormalize;
-  }
+  const double* G[8];
+  cornerGradients(perm_.data(), wrapCell(fx), wrapCell(fy), wrapCell(fz), G);
+  double g[3];
+  const double value = blend(G, x, y, z, fade(x), fade(y), fade(z), dfade(x), dfade(y), dfade(z), g);
+  grad = Vec3d(g[0], g[1], g[2]);
   return std::clamp(value, -1.0, 1.0);
+}
+
+void PerlinNoise3::withGradientLanes(const PerlinNoise3* noises, int count, const double* px, const double* py,
+                                     const double* pz, double* value, double* gx, double* gy, double* gz, bool avx) {
+#if SWARMSIM_X86_LANES
+  if (avx) {
+    Lanes::avx(noises, count, px, py, pz, value, gx, gy, gz);
+    return;
+  }
+#endif
+  (void)avx;
+  Lanes::baseline(noises, count, px, py, pz, value, gx, gy, gz);
+}
+
+bool PerlinNoise3::batchAvx() {
+#if SWARMSIM_X86_LANES
+  static const bool cpu = __builtin_cpu_supports("avx");
+  return cpu && !std::getenv("SWARMSIM_NO_AVX");
+#else
+  return false;
+#endif
 }
 
 }  // namespace swarmsim

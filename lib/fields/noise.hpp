@@ -32,7 +32,22 @@ class PerlinNoise3 {
   // in `grad`: the derivative of the interpolation above, fade'(t) = 30 t^2 (t − 1)^2
   double withGradient(const Vec3d& p, Vec3d& grad) const;
 
+  // the points one batch call evaluates together, one per SIMD lane
+  static constexpr int kLanes = 4;
+  // withGradient of noises[0], ..., noises[count - 1] at the kLanes points (px[l], py[l], pz[l]), equal to it bit
+  // for bit: noise k's value at point l in value[k * kLanes + l] (value may be null) and its gradient in
+  // (gx, gy, gz)[k * kLanes + l]. The same operations in the same order on SIMD lanes (table look-ups per lane);
+  // the lattice cell and the fades, which depend on the point only, once for all the noises. avx: with AVX
+  // instructions, which the CPU must have (batchAvx()), else SSE2 (same bits).
+  static void withGradientLanes(const PerlinNoise3* noises, int count, const double* px, const double* py,
+                                const double* pz, double* value, double* gx, double* gy, double* gz, bool avx);
+  // whether batches should use AVX: the CPU has it and SWARMSIM_NO_AVX is not set (read at each call, so a
+  // test can compare the two paths)
+  static bool batchAvx();
+
  private:
+  struct Lanes;  // the SIMD code of withGradientLanes, one entry per instruction set (noise.cpp)
+
   std::array<std::uint8_t, 512> perm_{};  // the shuffled 0..255 twice, so perm_[a + b] needs no wrap
 };
 

@@ -1,6 +1,10 @@
 #include "fields/noise_field.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
+
+#include "core/parallel.hpp"
 
 #include "geometry/obstacles.hpp"
 #include "geometry/signed_distance.hpp"
@@ -24,6 +28,8 @@ NoiseField::NoiseField(NoiseFieldKind kind, const NoiseParams& params, const Aab
   if (direct_) {
     potential_ = std::make_shared<NoisePotential>(params);
     step_ = 0.1 * edge;
+    exactFrom_ = potential_->d0() + 1.7320508 * step_;
+    if (boundary_ && kind_ == NoiseFieldKind::kCurl) buildFloor();
     return;
   }
   const GridSpec spec =
@@ -37,14 +43,62 @@ NoiseField::NoiseField(NoiseFieldKind kind, const NoiseParams& params, const Aab
   }
 }
 
+// The base cell of a trilinear sample at p on axis a, as Grid3::sample computes it
+static int sampleBase(const GridSpec& spec, const Vec3& p, int a) {
+  const float t = (p[a] - static_cast<float>(spec.min[a])) / static_cast<float>(spec.cell[a]) - 0.5f;
+  const int last = spec.n[a] - 1;
+  if (!(t > 0.0f)) return 0;
+  if (t >= static_cast<float>(last)) return std::max(0, last - 1);
+  return static_cast<int>(t);
+}
+
+void NoiseField::buildFloor() {
+  const GridSpec& spec = boundary_->spec;
+  for (int a = 0; a < 3; ++a) floorDims_[a] = (spec.n[a] + kFloorBlock - 1) / kFloorBlock;
+  floor_.assign(static_cast<std::size_t>(floorDims_[0]) * floorDims_[1] * floorDims_[2], 0.0f);
+  // a sample based at cell i reads cells i and i + 1: a block's bases [8c, 8c + 7] read [8c, 8c + 8]
+  parallelFor(floor_.size(), [&](std::size_t f) {
+    const int c[3] = {static_cast<int>(f % floorDims_[0]), static_cast<int>((f / floorDims_[0]) % floorDims_[1]),
+                      static_cast<int>(f / (static_cast<std::size_t>(floorDims_[0]) * floorDims_[1]))};
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = c[a] * kFloorBlock;
+      hi[a] = std::min(spec.n[a] - 1, lo[a] + kFloorBlock);
+    }
+    float m = std::numeric_limits<float>::infinity();
+    for (int k = lo[2]; k <= hi[2]; ++k) {
+      for (int j = lo[1]; j <= hi[1]; ++j) {
+        for (int i = lo[0]; i <= hi[0]; ++i) m = std::min(m, boundary_->at(i, j, k));
+      }
+    }
+    // the sample is a convex combination of those values, but for a few roundings (relative 1e-6 at most)
+    floor_[f] = m > 0.0f ? m * (1.0f - 1e-5f) : m * (1.0f + 1e-5f) - 1e-30f;
+  });
+}
+
+bool NoiseField::exactCurlAt(const Vec3& x) const {
+  // the blend is 1 over the whole difference stencil (the trilinear distance changes by at most sqrt(3) per metre)
+  if (!boundary_) return true;
+  if (!floor_.empty()) {
+    const GridSpec& spec = boundary_->spec;
+    const std::size_t f =
+        (static_cast<std::size_t>(sampleBase(spec, x, 2) / kFloorBlock) * floorDims_[1] +
+         static_cast<std::size_t>(sampleBase(spec, x, 1) / kFloorBlock)) * floorDims_[0] +
+        static_cast<std::size_t>(sampleBase(spec, x, 0) / kFloorBlock);
+    if (static_cast<double>(floor_[f]) >= exactFrom_) return true;  // the same answer as the sample's, sooner
+  }
+  return boundary_->sample(x) >= exactFrom_;
+}
+
 Vec3 NoiseField::evaluate(const Vec3& x) const {
   const Vec3d p = x.cast<double>();
   if (kind_ == NoiseFieldKind::kPerlin) return (potential_->noise(p) * gain_).cast<float>();
-  // away from the boundary (the blend is 1 over the whole difference stencil: the trilinear
-  // distance changes by at most sqrt(3) per metre) the curl is exact, from the noises' gradients
-  if (!boundary_ || boundary_->sample(x) >= potential_->d0() + 1.7320508 * step_) {
-    return potential_->curlRaw(p).cast<float>();
-  }
+  // away from the boundary the curl is exact, from the noises' gradients
+  if (exactCurlAt(x)) return potential_->curlRaw(p).cast<float>();
+  return blendedCurl(p);
+}
+
+Vec3 NoiseField::blendedCurl(const Vec3d& p) const {
   Vec3d d[3];  // d[a] = ∂N/∂x_a
   for (int a = 0; a < 3; ++a) {
     Vec3d e = Vec3d::Zero();
@@ -52,6 +106,52 @@ Vec3 NoiseField::evaluate(const Vec3& x) const {
     d[a] = ((*potential_)(p + e, boundary_) - (*potential_)(p - e, boundary_)) / (2.0 * step_);
   }
   return Vec3d(d[1].z() - d[2].y(), d[2].x() - d[0].z(), d[0].y() - d[1].x()).cast<float>();
+}
+
+void NoiseField::evaluateBatch(const float* x, const float* y, const float* z, std::size_t n, float* ox, float* oy,
+                               float* oz) const {
+  if (!direct_ || kind_ != NoiseFieldKind::kCurl) {
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vec3 v = (*this)(Vec3(x[i], y[i], z[i]));
+      ox[i] = v.x();
+      oy[i] = v.y();
+      oz[i] = v.z();
+    }
+    return;
+  }
+  // blocks of points: first the boundary test of each (the distance samples are independent, so their cache
+  // misses overlap), then the differences near the boundary one point at a time and the exact curl of the
+  // others on SIMD lanes
+  constexpr std::size_t kBlock = 64;
+  const bool avx = PerlinNoise3::batchAvx();
+  bool exact[kBlock];
+  double px[kBlock], py[kBlock], pz[kBlock], cx[kBlock], cy[kBlock], cz[kBlock];
+  std::size_t slot[kBlock];
+  for (std::size_t start = 0; start < n; start += kBlock) {
+    const std::size_t m = std::min(kBlock, n - start);
+    for (std::size_t j = 0; j < m; ++j) exact[j] = exactCurlAt(Vec3(x[start + j], y[start + j], z[start + j]));
+    std::size_t k = 0;
+    for (std::size_t j = 0; j < m; ++j) {
+      const std::size_t i = start + j;
+      if (exact[j]) {
+        px[k] = static_cast<double>(x[i]);
+        py[k] = static_cast<double>(y[i]);
+        pz[k] = static_cast<double>(z[i]);
+        slot[k++] = i;
+        continue;
+      }
+      const Vec3 v = blendedCurl(Vec3(x[i], y[i], z[i]).cast<double>());
+      ox[i] = v.x();
+      oy[i] = v.y();
+      oz[i] = v.z();
+    }
+    potential_->curlRawBatch(px, py, pz, k, cx, cy, cz, avx);
+    for (std::size_t q = 0; q < k; ++q) {
+      ox[slot[q]] = static_cast<float>(cx[q]);
+      oy[slot[q]] = static_cast<float>(cy[q]);
+      oz[slot[q]] = static_cast<float>(cz[q]);
+    }
+  }
 }
 
 }  // namespace swarmsim

@@ -12,7 +12,9 @@
 // (curl_noise.hpp, eq. 2-3 of wang2014), so it flows along them rather than
 // into them.
 #include <array>
+#include <cstddef>
 #include <memory>
+#include <vector>
 
 #include "core/vec.hpp"
 #include "core/world.hpp"
@@ -35,11 +37,21 @@ class NoiseField {
 
   // the field at x (m/s)
   Vec3 operator()(const Vec3& x) const { return direct_ ? evaluate(x) : grid_.sample(x); }
+  // the field at the n points (x[i], y[i], z[i]) into (ox[i], oy[i], oz[i]), equal bit for bit to operator() at
+  // each; direct curl noise away from the boundary (the exact curl) takes PerlinNoise3::kLanes points at a time
+  // on SIMD lanes (AVX where the CPU has it and SWARMSIM_NO_AVX is unset), every other point operator()
+  void evaluateBatch(const float* x, const float* y, const float* z, std::size_t n, float* ox, float* oy,
+                     float* oz) const;
   bool direct() const { return direct_; }
   const GridSpec& spec() const { return grid_.spec; }
 
  private:
   Vec3 evaluate(const Vec3& x) const;
+  // direct curl: whether x is far enough from the boundary for the exact curl (evaluate's test)
+  bool exactCurlAt(const Vec3& x) const;
+  void buildFloor();
+  // direct curl near the boundary: central differences of the blended potential at p
+  Vec3 blendedCurl(const Vec3d& p) const;
 
   NoiseFieldKind kind_ = NoiseFieldKind::kCurl;
   bool direct_ = false;
@@ -48,6 +60,12 @@ class NoiseField {
   const Grid3<float>* boundary_ = nullptr;
   double step_ = 0.0;  // central-difference step of direct curl, m
   double gain_ = 1.0;  // direct Perlin: the gain (the potential carries it for curl)
+  // direct curl with a boundary: a lower bound of boundary_->sample over each block of kFloorBlock^3 base
+  // cells (a cache-sized summary of the distance grid: most points pass exactCurlAt on it alone)
+  static constexpr int kFloorBlock = 8;
+  std::vector<float> floor_;
+  std::array<int, 3> floorDims_ = {0, 0, 0};
+  double exactFrom_ = 0.0;  // the distance from which the curl is exact
 };
 
 }  // namespace swarmsim

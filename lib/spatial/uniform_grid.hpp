@@ -16,6 +16,9 @@
 #include <vector>
 
 #include "core/parallel.hpp"
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace swarmsim {
 
@@ -43,13 +46,35 @@ struct CellBlock {
       dd[j] = dx * dx + dy * dy + dz * dz;
     }
     std::uint32_t* __restrict h = hits.data();
-    std::size_t m = 0;
-    for (std::size_t j = 0; j < size; ++j) {  // branch-free compaction
+    std::size_t m = 0, j = 0;
+#if defined(__SSE2__)
+    // four at a time: the indices of the lanes within r, packed by a table of the 16 lane masks and
+    // stored as one vector (the store may write up to 3 entries past the result: hits has the room)
+    const __m128 vr2 = _mm_set1_ps(r2);
+    for (; j + 4 <= size; j += 4) {
+      const auto mask = static_cast<unsigned>(_mm_movemask_ps(_mm_cmple_ps(_mm_loadu_ps(dd + j), vr2)));
+      const __m128i packed = _mm_add_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(kPackedLanes[mask])),
+                                           _mm_set1_epi32(static_cast<int>(j)));
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(h + m), packed);
+      m += kLaneCount[mask];
+    }
+#endif
+    for (; j < size; ++j) {  // branch-free compaction
       h[m] = static_cast<std::uint32_t>(j);
       m += dd[j] <= r2 ? 1u : 0u;
     }
     return m;
   }
+
+#if defined(__SSE2__)
+  // for each 4-lane mask, the set lanes' numbers in order (the rest: don't care)
+  alignas(16) static constexpr std::uint32_t kPackedLanes[16][4] = {
+      {0, 0, 0, 0}, {0, 0, 0, 0}, {1, 0, 0, 0}, {0, 1, 0, 0}, {2, 0, 0, 0}, {0, 2, 0, 0}, {1, 2, 0, 0},
+      {0, 1, 2, 0}, {3, 0, 0, 0}, {0, 3, 0, 0}, {1, 3, 0, 0}, {0, 1, 3, 0}, {2, 3, 0, 0}, {0, 2, 3, 0},
+      {1, 2, 3, 0}, {0, 1, 2, 3}};
+  // set lanes per 4-lane mask (__builtin_popcount is a library call on x86-64 without POPCNT)
+  static constexpr std::uint8_t kLaneCount[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
+#endif
 };
 
 class UniformGrid {

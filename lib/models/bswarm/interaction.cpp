@@ -6,12 +6,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <limits>
-#if defined(__GNUC__) && defined(__x86_64__)
-#include <immintrin.h>
-#define SWARMSIM_X86_LANES 1
-#define SWARMSIM_AVX __attribute__((target("avx")))
-#endif
 
+#include "core/lanes.hpp"
 #include "core/parallel.hpp"
 
 namespace swarmsim {
@@ -22,10 +18,7 @@ using Node = InteractionForces::Node;
 using Expansion = InteractionForces::Expansion;
 using CutModel = InteractionForces::CutModel;
 
-// The scan works on 8 logical lanes: one AVX register, or two SSE registers on CPUs without AVX. Every
-// operation is exact IEEE arithmetic per lane and the lanes are added in a fixed order, so both give the
-// same bits (SWARMSIM_NO_AVX=1 in the environment forces the SSE lanes, for tests).
-constexpr std::size_t kLanes = 8;
+// The scan works on the 8 logical lanes of core/lanes.hpp (AVX, or two SSE registers): the same bits either way.
 constexpr std::size_t kBlock = 2 * kLanes;     // entries per step of the scan: blocks are padded to it
 constexpr float kTiny = 1e-30f;                // floor of squared distances: products of two stay normal
 constexpr float kFar = 1e18f;                  // padding position: beyond every radius, its square still finite
@@ -41,129 +34,6 @@ constexpr float kCutTheta = 0.5f;            // cells that straddle a zone borde
 constexpr float kUnevenCut2 = 1.0f / 16.0f;  // ... and (theta_cut / 4)^2 for cells not evenly filled
 // zone borders with a little slack: a cell lies in one zone only if it does so with a margin
 constexpr float kLo = 1.0f - 1e-5f, kHi = 1.0f + 1e-5f;
-
-#if SWARMSIM_X86_LANES
-struct SseLanes {
-  struct V {
-    __m128 a, b;
-  };
-  static V load(const float* p) { return {_mm_loadu_ps(p), _mm_loadu_ps(p + 4)}; }
-  static V set1(float x) { return {_mm_set1_ps(x), _mm_set1_ps(x)}; }
-  static V add(V x, V y) { return {_mm_add_ps(x.a, y.a), _mm_add_ps(x.b, y.b)}; }
-  static V sub(V x, V y) { return {_mm_sub_ps(x.a, y.a), _mm_sub_ps(x.b, y.b)}; }
-  static V mul(V x, V y) { return {_mm_mul_ps(x.a, y.a), _mm_mul_ps(x.b, y.b)}; }
-  static V div(V x, V y) { return {_mm_div_ps(x.a, y.a), _mm_div_ps(x.b, y.b)}; }
-  static V max(V x, V y) { return {_mm_max_ps(x.a, y.a), _mm_max_ps(x.b, y.b)}; }
-  static V sqrt(V x) { return {_mm_sqrt_ps(x.a), _mm_sqrt_ps(x.b)}; }
-  static V lt(V x, V y) { return {_mm_cmplt_ps(x.a, y.a), _mm_cmplt_ps(x.b, y.b)}; }
-  static V le(V x, V y) { return {_mm_cmple_ps(x.a, y.a), _mm_cmple_ps(x.b, y.b)}; }
-  static V band(V x, V y) { return {_mm_and_ps(x.a, y.a), _mm_and_ps(x.b, y.b)}; }
-  static V andnot(V x, V y) { return {_mm_andnot_ps(x.a, y.a), _mm_andnot_ps(x.b, y.b)}; }  // ~x & y
-  static int count(V m) {
-    return __builtin_popcount(static_cast<unsigned>(_mm_movemask_ps(m.a) | (_mm_movemask_ps(m.b) << 4)));
-  }
-  static void store(float* p, V x) {
-    _mm_storeu_ps(p, x.a);
-    _mm_storeu_ps(p + 4, x.b);
-  }
-  static void fold4(V x, float* p) { _mm_storeu_ps(p, _mm_add_ps(x.a, x.b)); }  // lane i + lane i+4
-};
-
-struct AvxLanes {
-  struct V {
-    __m256 a;
-  };
-  SWARMSIM_AVX static V load(const float* p) { return {_mm256_loadu_ps(p)}; }
-  SWARMSIM_AVX static V set1(float x) { return {_mm256_set1_ps(x)}; }
-  SWARMSIM_AVX static V add(V x, V y) { return {_mm256_add_ps(x.a, y.a)}; }
-  SWARMSIM_AVX static V sub(V x, V y) { return {_mm256_sub_ps(x.a, y.a)}; }
-  SWARMSIM_AVX static V mul(V x, V y) { return {_mm256_mul_ps(x.a, y.a)}; }
-  SWARMSIM_AVX static V div(V x, V y) { return {_mm256_div_ps(x.a, y.a)}; }
-  SWARMSIM_AVX static V max(V x, V y) { return {_mm256_max_ps(x.a, y.a)}; }
-  SWARMSIM_AVX static V sqrt(V x) { return {_mm256_sqrt_ps(x.a)}; }
-  SWARMSIM_AVX static V lt(V x, V y) { return {_mm256_cmp_ps(x.a, y.a, _CMP_LT_OQ)}; }
-  SWARMSIM_AVX static V le(V x, V y) { return {_mm256_cmp_ps(x.a, y.a, _CMP_LE_OQ)}; }
-  SWARMSIM_AVX static V band(V x, V y) { return {_mm256_and_ps(x.a, y.a)}; }
-  SWARMSIM_AVX static V andnot(V x, V y) { return {_mm256_andnot_ps(x.a, y.a)}; }
-  SWARMSIM_AVX static int count(V m) { return __builtin_popcount(static_cast<unsigned>(_mm256_movemask_ps(m.a))); }
-  SWARMSIM_AVX static void store(float* p, V x) { _mm256_storeu_ps(p, x.a); }
-  SWARMSIM_AVX static void fold4(V x, float* p) {
-    _mm_storeu_ps(p, _mm_add_ps(_mm256_castps256_ps128(x.a), _mm256_extractf128_ps(x.a, 1)));
-  }
-};
-#else
-// the same lanes in portable code (masks are all-one bit patterns, as in the SIMD versions)
-struct ScalarLanes {
-  struct V {
-    float l[kLanes];
-  };
-  template <typename F>
-  static V map(V x, V y, F f) {
-    V r;
-    for (std::size_t i = 0; i < kLanes; ++i) r.l[i] = f(x.l[i], y.l[i]);
-    return r;
-  }
-  static float bits(std::uint32_t u) {
-    float f;
-    std::memcpy(&f, &u, sizeof f);
-    return f;
-  }
-  static std::uint32_t bits(float f) {
-    std::uint32_t u;
-    std::memcpy(&u, &f, sizeof u);
-    return u;
-  }
-  static V load(const float* p) {
-    V r;
-    std::copy(p, p + kLanes, r.l);
-    return r;
-  }
-  static V set1(float x) {
-    V r;
-    std::fill(r.l, r.l + kLanes, x);
-    return r;
-  }
-  static V add(V x, V y) {
-    return map(x, y, [](float a, float b) { return a + b; });
-  }
-  static V sub(V x, V y) {
-    return map(x, y, [](float a, float b) { return a - b; });
-  }
-  static V mul(V x, V y) {
-    return map(x, y, [](float a, float b) { return a * b; });
-  }
-  static V div(V x, V y) {
-    return map(x, y, [](float a, float b) { return a / b; });
-  }
-  static V max(V x, V y) {
-    return map(x, y, [](float a, float b) { return a > b ? a : b; });
-  }
-  static V sqrt(V x) {
-    return map(x, x, [](float a, float) { return std::sqrt(a); });
-  }
-  static V lt(V x, V y) {
-    return map(x, y, [](float a, float b) { return bits(a < b ? ~0u : 0u); });
-  }
-  static V le(V x, V y) {
-    return map(x, y, [](float a, float b) { return bits(a <= b ? ~0u : 0u); });
-  }
-  static V band(V x, V y) {
-    return map(x, y, [](float a, float b) { return bits(bits(a) & bits(b)); });
-  }
-  static V andnot(V x, V y) {
-    return map(x, y, [](float a, float b) { return bits(~bits(a) & bits(b)); });
-  }
-  static int count(V m) {
-    int c = 0;
-    for (const float f : m.l) c += bits(f) ? 1 : 0;
-    return c;
-  }
-  static void store(float* p, V x) { std::copy(x.l, x.l + kLanes, p); }
-  static void fold4(V x, float* p) {
-    for (std::size_t i = 0; i < 4; ++i) p[i] = x.l[i] + x.l[i + 4];
-  }
-};
-#endif
 
 // the zone borders (squared) and which terms can be nonzero
 struct Zones {
@@ -206,14 +76,6 @@ void forEachQuery(std::size_t n, std::size_t chunk, F&& body) {
   }
 }
 
-bool useAvx() {
-#if SWARMSIM_X86_LANES
-  static const bool avx = __builtin_cpu_supports("avx");
-  return avx && !std::getenv("SWARMSIM_NO_AVX");
-#else
-  return false;
-#endif
-}
 
 double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 

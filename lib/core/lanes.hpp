@@ -1,0 +1,237 @@
+#pragma once
+// Eight logical float lanes for SIMD kernels: one AVX register (AvxLanes), two
+// SSE registers (SseLanes, any x86-64 CPU) or plain code elsewhere
+// (ScalarLanes). Every operation is exact IEEE arithmetic per lane (no fused
+// multiply-add), so a kernel written once over `L` gives the same bits with any
+// of them; lanes are combined in a fixed order by the kernels. useAvx() picks
+// AVX at run time (SWARMSIM_NO_AVX=1 in the environment forces the SSE lanes,
+// for tests). Entry points compiled for AVX carry SWARMSIM_AVX and `flatten`,
+// so the lane operations inline into them.
+//
+// Masks are all-one (true) or all-zero bit patterns per lane, as the compare
+// instructions make them.
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#if defined(__GNUC__) && defined(__x86_64__)
+#include <immintrin.h>
+#define SWARMSIM_X86_LANES 1
+#define SWARMSIM_AVX __attribute__((target("avx")))
+#endif
+
+namespace swarmsim {
+
+constexpr std::size_t kLanes = 8;
+
+// set bits of an 8-lane mask (__builtin_popcount is a library call on x86-64 without POPCNT)
+inline int laneCount(unsigned mask) {
+  static constexpr std::uint8_t kNibble[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
+  return kNibble[mask & 15u] + kNibble[(mask >> 4) & 15u];
+}
+
+#if SWARMSIM_X86_LANES
+struct SseLanes {
+  struct V {
+    __m128 a, b;
+  };
+  static V load(const float* p) { return {_mm_loadu_ps(p), _mm_loadu_ps(p + 4)}; }
+  static V set1(float x) { return {_mm_set1_ps(x), _mm_set1_ps(x)}; }
+  static V add(V x, V y) { return {_mm_add_ps(x.a, y.a), _mm_add_ps(x.b, y.b)}; }
+  static V sub(V x, V y) { return {_mm_sub_ps(x.a, y.a), _mm_sub_ps(x.b, y.b)}; }
+  static V mul(V x, V y) { return {_mm_mul_ps(x.a, y.a), _mm_mul_ps(x.b, y.b)}; }
+  static V div(V x, V y) { return {_mm_div_ps(x.a, y.a), _mm_div_ps(x.b, y.b)}; }
+  static V max(V x, V y) { return {_mm_max_ps(x.a, y.a), _mm_max_ps(x.b, y.b)}; }
+  static V sqrt(V x) { return {_mm_sqrt_ps(x.a), _mm_sqrt_ps(x.b)}; }
+  static V lt(V x, V y) { return {_mm_cmplt_ps(x.a, y.a), _mm_cmplt_ps(x.b, y.b)}; }
+  static V le(V x, V y) { return {_mm_cmple_ps(x.a, y.a), _mm_cmple_ps(x.b, y.b)}; }
+  static V band(V x, V y) { return {_mm_and_ps(x.a, y.a), _mm_and_ps(x.b, y.b)}; }
+  static V andnot(V x, V y) { return {_mm_andnot_ps(x.a, y.a), _mm_andnot_ps(x.b, y.b)}; }  // ~x & y
+  static int count(V m) {
+    return laneCount(static_cast<unsigned>(_mm_movemask_ps(m.a) | (_mm_movemask_ps(m.b) << 4)));
+  }
+  static void store(float* p, V x) {
+    _mm_storeu_ps(p, x.a);
+    _mm_storeu_ps(p + 4, x.b);
+  }
+  static void fold4(V x, float* p) { _mm_storeu_ps(p, _mm_add_ps(x.a, x.b)); }  // lane i + lane i+4
+  static V min(V x, V y) { return {_mm_min_ps(x.a, y.a), _mm_min_ps(x.b, y.b)}; }
+  static V gt(V x, V y) { return {_mm_cmpgt_ps(x.a, y.a), _mm_cmpgt_ps(x.b, y.b)}; }
+  static V bor(V x, V y) { return {_mm_or_ps(x.a, y.a), _mm_or_ps(x.b, y.b)}; }
+  static unsigned mask(V m) {
+    return static_cast<unsigned>(_mm_movemask_ps(m.a) | (_mm_movemask_ps(m.b) << 4));
+  }
+  // round to the nearest integer (ties to even: the default rounding mode), as floats
+  static V round(V x) {
+    return {_mm_cvtepi32_ps(_mm_cvtps_epi32(x.a)), _mm_cvtepi32_ps(_mm_cvtps_epi32(x.b))};
+  }
+  // 2^n for integer-valued n in [-126, 127]
+  static V pow2(V n) {
+    const __m128i bias = _mm_set1_epi32(127);
+    return {_mm_castsi128_ps(_mm_slli_epi32(_mm_add_epi32(_mm_cvtps_epi32(n.a), bias), 23)),
+            _mm_castsi128_ps(_mm_slli_epi32(_mm_add_epi32(_mm_cvtps_epi32(n.b), bias), 23))};
+  }
+};
+
+struct AvxLanes {
+  struct V {
+    __m256 a;
+  };
+  SWARMSIM_AVX static V load(const float* p) { return {_mm256_loadu_ps(p)}; }
+  SWARMSIM_AVX static V set1(float x) { return {_mm256_set1_ps(x)}; }
+  SWARMSIM_AVX static V add(V x, V y) { return {_mm256_add_ps(x.a, y.a)}; }
+  SWARMSIM_AVX static V sub(V x, V y) { return {_mm256_sub_ps(x.a, y.a)}; }
+  SWARMSIM_AVX static V mul(V x, V y) { return {_mm256_mul_ps(x.a, y.a)}; }
+  SWARMSIM_AVX static V div(V x, V y) { return {_mm256_div_ps(x.a, y.a)}; }
+  SWARMSIM_AVX static V max(V x, V y) { return {_mm256_max_ps(x.a, y.a)}; }
+  SWARMSIM_AVX static V sqrt(V x) { return {_mm256_sqrt_ps(x.a)}; }
+  SWARMSIM_AVX static V lt(V x, V y) { return {_mm256_cmp_ps(x.a, y.a, _CMP_LT_OQ)}; }
+  SWARMSIM_AVX static V le(V x, V y) { return {_mm256_cmp_ps(x.a, y.a, _CMP_LE_OQ)}; }
+  SWARMSIM_AVX static V band(V x, V y) { return {_mm256_and_ps(x.a, y.a)}; }
+  SWARMSIM_AVX static V andnot(V x, V y) { return {_mm256_andnot_ps(x.a, y.a)}; }
+  SWARMSIM_AVX static int count(V m) { return laneCount(static_cast<unsigned>(_mm256_movemask_ps(m.a))); }
+  SWARMSIM_AVX static void store(float* p, V x) { _mm256_storeu_ps(p, x.a); }
+  SWARMSIM_AVX static void fold4(V x, float* p) {
+    _mm_storeu_ps(p, _mm_add_ps(_mm256_castps256_ps128(x.a), _mm256_extractf128_ps(x.a, 1)));
+  }
+  SWARMSIM_AVX static V min(V x, V y) { return {_mm256_min_ps(x.a, y.a)}; }
+  SWARMSIM_AVX static V gt(V x, V y) { return {_mm256_cmp_ps(x.a, y.a, _CMP_GT_OQ)}; }
+  SWARMSIM_AVX static V bor(V x, V y) { return {_mm256_or_ps(x.a, y.a)}; }
+  SWARMSIM_AVX static unsigned mask(V m) { return static_cast<unsigned>(_mm256_movemask_ps(m.a)); }
+  SWARMSIM_AVX static V round(V x) { return {_mm256_cvtepi32_ps(_mm256_cvtps_epi32(x.a))}; }
+  // AVX has no 256-bit integer arithmetic: the exponent is built in two SSE halves
+  SWARMSIM_AVX static V pow2(V n) {
+    const __m256i e = _mm256_cvtps_epi32(n.a);
+    const __m128i bias = _mm_set1_epi32(127);
+    const __m128i lo = _mm_slli_epi32(_mm_add_epi32(_mm256_castsi256_si128(e), bias), 23);
+    const __m128i hi = _mm_slli_epi32(_mm_add_epi32(_mm256_extractf128_si256(e, 1), bias), 23);
+    return {_mm256_castsi256_ps(_mm256_insertf128_si256(_mm256_castsi128_si256(lo), hi, 1))};
+  }
+};
+#endif
+// the same lanes in portable code (masks are all-one bit patterns, as in the SIMD versions)
+struct ScalarLanes {
+  struct V {
+    float l[kLanes];
+  };
+  template <typename F>
+  static V map(V x, V y, F f) {
+    V r;
+    for (std::size_t i = 0; i < kLanes; ++i) r.l[i] = f(x.l[i], y.l[i]);
+    return r;
+  }
+  static float bits(std::uint32_t u) {
+    float f;
+    std::memcpy(&f, &u, sizeof f);
+    return f;
+  }
+  static std::uint32_t bits(float f) {
+    std::uint32_t u;
+    std::memcpy(&u, &f, sizeof u);
+    return u;
+  }
+  static V load(const float* p) {
+    V r;
+    std::copy(p, p + kLanes, r.l);
+    return r;
+  }
+  static V set1(float x) {
+    V r;
+    std::fill(r.l, r.l + kLanes, x);
+    return r;
+  }
+  static V add(V x, V y) {
+    return map(x, y, [](float a, float b) { return a + b; });
+  }
+  static V sub(V x, V y) {
+    return map(x, y, [](float a, float b) { return a - b; });
+  }
+  static V mul(V x, V y) {
+    return map(x, y, [](float a, float b) { return a * b; });
+  }
+  static V div(V x, V y) {
+    return map(x, y, [](float a, float b) { return a / b; });
+  }
+  static V max(V x, V y) {
+    return map(x, y, [](float a, float b) { return a > b ? a : b; });
+  }
+  static V sqrt(V x) {
+    return map(x, x, [](float a, float) { return std::sqrt(a); });
+  }
+  static V lt(V x, V y) {
+    return map(x, y, [](float a, float b) { return bits(a < b ? ~0u : 0u); });
+  }
+  static V le(V x, V y) {
+    return map(x, y, [](float a, float b) { return bits(a <= b ? ~0u : 0u); });
+  }
+  static V band(V x, V y) {
+    return map(x, y, [](float a, float b) { return bits(bits(a) & bits(b)); });
+  }
+  static V andnot(V x, V y) {
+    return map(x, y, [](float a, float b) { return bits(~bits(a) & bits(b)); });
+  }
+  static int count(V m) {
+    int c = 0;
+    for (const float f : m.l) c += bits(f) ? 1 : 0;
+    return c;
+  }
+  static void store(float* p, V x) { std::copy(x.l, x.l + kLanes, p); }
+  static void fold4(V x, float* p) {
+    for (std::size_t i = 0; i < 4; ++i) p[i] = x.l[i] + x.l[i + 4];
+  }
+  static V min(V x, V y) {
+    return map(x, y, [](float a, float b) { return a < b ? a : b; });
+  }
+  static V gt(V x, V y) {
+    return map(x, y, [](float a, float b) { return bits(a > b ? ~0u : 0u); });
+  }
+  static V bor(V x, V y) {
+    return map(x, y, [](float a, float b) { return bits(bits(a) | bits(b)); });
+  }
+  static unsigned mask(V m) {
+    unsigned r = 0;
+    for (std::size_t i = 0; i < kLanes; ++i) r |= (bits(m.l[i]) >> 31) << i;
+    return r;
+  }
+  static V round(V x) {
+    return map(x, x, [](float a, float) { return std::nearbyint(a); });
+  }
+  static V pow2(V n) {
+    return map(n, n, [](float a, float) { return bits(static_cast<std::uint32_t>(static_cast<int>(a) + 127) << 23); });
+  }
+};
+
+
+inline bool useAvx() {
+#if SWARMSIM_X86_LANES
+  static const bool avx = __builtin_cpu_supports("avx");
+  return avx && !std::getenv("SWARMSIM_NO_AVX");
+#else
+  return false;
+#endif
+}
+
+// e^x per lane (x clamped to [-87, 88]): x = n ln 2 + g with integer n = round(x log2 e) and |g| <= ln 2 / 2
+// (ln 2 in two parts, Cody and Waite, so g is nearly exact), then 2^n times the degree-7 Taylor polynomial
+// of e^g: relative error about 2e-7 at most. Written in lane operations only, so every lane type gives
+// the same bits.
+template <typename L>
+inline typename L::V expLanes(typename L::V x) {
+  using V = typename L::V;
+  x = L::min(L::max(x, L::set1(-87.0f)), L::set1(88.0f));
+  const V n = L::round(L::mul(x, L::set1(1.44269504f)));
+  const V g = L::sub(L::sub(x, L::mul(n, L::set1(0.693359375f))), L::mul(n, L::set1(-2.12194440e-4f)));
+  V p = L::set1(1.0f / 5040.0f);
+  p = L::add(L::mul(p, g), L::set1(1.0f / 720.0f));
+  p = L::add(L::mul(p, g), L::set1(1.0f / 120.0f));
+  p = L::add(L::mul(p, g), L::set1(1.0f / 24.0f));
+  p = L::add(L::mul(p, g), L::set1(1.0f / 6.0f));
+  p = L::add(L::mul(p, g), L::set1(0.5f));
+  p = L::add(L::mul(p, g), L::set1(1.0f));
+  p = L::add(L::mul(p, g), L::set1(1.0f));
+  return L::mul(p, L::pow2(n));
+}
+
+}  // namespace swarmsim

@@ -1,0 +1,49 @@
+#pragma once
+// The shape model's per-insect sums over its near neighbours, eight lanes at a
+// time (core/lanes.hpp: AVX or SSE chosen at run time, the same bits either
+// way). Every sum runs over its entries in the order given (the callers give
+// them in ascending sorted position, which depends only on the positions) with
+// entry e in lane e % 8, and the lanes are added 0..7: so the result depends on
+// the data only, never on threads or the instruction set.
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "core/vec.hpp"
+#include "spatial/uniform_grid.hpp"
+
+namespace swarmsim {
+
+// `avx`: use the AVX lanes (useAvx(), asked once per step: it reads the environment)
+
+// per-thread scratch of the kernels (grows rarely, never shrinks)
+struct NearScratch {
+  std::vector<float> dx, dy, dz, d2, ux, uy, uz;
+  std::vector<std::uint32_t> pick;
+  std::vector<std::uint64_t> keys;
+  void reserve(std::size_t n);
+};
+
+// F_con's sum (eq. 5) over the block entries hits[0, m): Σ d̂ exp(−M² inv2s2) over the entries with
+// 0 < |d| and Manhattan length M < threshold, d = p_j − q (the caller negates and scales it), and how
+// many there were
+void constraintSum(const CellBlock& block, const std::uint32_t* hits, std::size_t m, const Vec3& q, float threshold,
+                   float inv2s2, NearScratch& scratch, bool avx, Vec3& sum, int& count);
+
+// the block entries b (ascending) with block.d2[b] <= r2 and block.index[b] != k, into scratch.pick;
+// returns how many
+std::size_t collectWithin(const CellBlock& block, std::uint32_t k, float r2, NearScratch& scratch, bool avx);
+
+// the zones of F_int (eq. 2-3): squared radii and weights
+struct ZoneLanes {
+  float rep2, ali2, att2;
+  float w[3];
+};
+
+// F_int (eq. 2-3) from m neighbours given in scratch.dx/dy/dz/d2 (d = p_j − q) and scratch.ux/uy/uz
+// (v_j − v_q): Σ_k ω_k / N_k Σ_{j in zone k} (S_k d̂ + (1 − S_k²) û), zones rep [0, r_rep) S = −1,
+// ali [r_rep, r_ali) S = 0, att [r_ali, r_att] S = +1, nothing beyond r_att; a zero d or u adds a zero
+// vector but counts
+Vec3 zonalForce(std::size_t m, const ZoneLanes& zones, NearScratch& scratch, bool avx);
+
+}  // namespace swarmsim

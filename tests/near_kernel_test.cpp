@@ -1,0 +1,153 @@
+// The shape model's near-field kernels (lib/models/shape/near_kernel.hpp) and the lanes they are built on
+// (lib/core/lanes.hpp): the vector e^x against std::exp, the same bits on every lane type, and each kernel
+// against the scalar sums of shape.hpp (ShapeConstraintSum, ZonalSum) over the same entries.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <cstring>
+#include <random>
+#include <vector>
+
+#include "core/lanes.hpp"
+#include "models/shape/near_kernel.hpp"
+#include "models/shape/shape.hpp"
+#include "spatial/uniform_grid.hpp"
+
+using namespace swarmsim;
+
+namespace {
+
+template <typename L>
+std::vector<float> expOf(const std::vector<float>& x) {
+  std::vector<float> out(x.size());
+  for (std::size_t i = 0; i < x.size(); i += kLanes) L::store(out.data() + i, expLanes<L>(L::load(x.data() + i)));
+  return out;
+}
+
+#if SWARMSIM_X86_LANES
+// the AVX lanes only inside a function compiled for AVX (their vectors cross no other function's boundary)
+SWARMSIM_AVX __attribute__((flatten)) void expAvx(const float* x, float* out, std::size_t n) {
+  for (std::size_t i = 0; i < n; i += kLanes) AvxLanes::store(out + i, expLanes<AvxLanes>(AvxLanes::load(x + i)));
+}
+#endif
+
+// a block holding every point (one cell), its squared distances to q filled as CellBlock::filter does
+CellBlock blockOf(const std::vector<Vec3>& pts, const Vec3& q) {
+  CellBlock b;
+  const std::size_t cap = pts.size() + 16;
+  for (auto* v : {&b.x, &b.y, &b.z, &b.d2}) v->assign(cap, 0.0f);
+  b.index.assign(cap, 0);
+  b.hits.assign(cap, 0);
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    b.x[i] = pts[i].x();
+    b.y[i] = pts[i].y();
+    b.z[i] = pts[i].z();
+    b.index[i] = static_cast<std::uint32_t>(i);
+  }
+  b.size = pts.size();
+  b.filter(q.x(), q.y(), q.z(), 1e30f);
+  return b;
+}
+
+bool sameBits(const Vec3& a, const Vec3& b) { return std::memcmp(a.data(), b.data(), sizeof(float) * 3) == 0; }
+
+}  // namespace
+
+TEST_CASE("lanes: e^x within 3e-7 of std::exp on [-20, 3], the same bits on every lane type",
+          "[shape][lanes]") {
+  std::vector<float> x;
+  for (int i = 0; i <= 23000; ++i) x.push_back(-20.0f + 0.001f * static_cast<float>(i));
+  x.push_back(-200.0f);  // clamped to -87: tiny but finite
+  while (x.size() % kLanes != 0) x.push_back(0.0f);
+  const std::vector<float> s = expOf<ScalarLanes>(x);
+  double worst = 0.0, worstFar = 0.0;
+  for (std::size_t i = 0; i + 1 < x.size(); ++i) {
+    if (x[i] < -87.0f) continue;
+    const double e = std::exp(static_cast<double>(x[i]));
+    (x[i] >= -3.0f ? worst : worstFar) = std::max(x[i] >= -3.0f ? worst : worstFar, std::abs(static_cast<double>(s[i]) - e) / e);
+  }
+  CHECK(worst < 3e-7);
+  CHECK(worstFar < 3e-7);
+  const auto tail = std::find(x.begin(), x.end(), -200.0f) - x.begin();
+  CHECK(s[static_cast<std::size_t>(tail)] > 0.0f);
+  CHECK(s[static_cast<std::size_t>(tail)] < 1e-37f);
+#if SWARMSIM_X86_LANES
+  CHECK(expOf<SseLanes>(x) == s);
+  if (__builtin_cpu_supports("avx")) {
+    std::vector<float> a(x.size());
+    expAvx(x.data(), a.data(), x.size());
+    CHECK(a == s);
+  }
+#endif
+}
+
+TEST_CASE("near kernels: F_con and F_int sums equal the scalar ones, and AVX equals SSE bit for bit",
+          "[shape][lanes]") {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  for (const std::size_t n : {1u, 2u, 7u, 8u, 9u, 31u, 200u}) {
+    std::vector<Vec3> pts(n), vel(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      pts[i] = Vec3(u(rng), u(rng), u(rng));
+      vel[i] = Vec3(u(rng), u(rng), u(rng));
+    }
+    pts[n / 2] = pts[0];  // a coincident pair (and, for n = 1, the query itself): counted by neither F_con
+    const Vec3 q = pts[0], vq = vel[0];
+    const CellBlock block = blockOf(pts, q);
+    std::vector<std::uint32_t> all(n);
+    for (std::size_t i = 0; i < n; ++i) all[i] = static_cast<std::uint32_t>(i);
+
+    // F_con: Manhattan threshold 0.9, sigma 0.3
+    ShapeConstraintSum ref(0.9f, 0.3f);
+    for (std::size_t i = 0; i < n; ++i) ref.add(pts[i].x() - q.x(), pts[i].y() - q.y(), pts[i].z() - q.z(), block.d2[i]);
+    NearScratch ns;
+    Vec3 sum[2];
+    int count[2] = {0, 0};
+    for (int avx = 0; avx < 2; ++avx) {
+      constraintSum(block, all.data(), n, q, 0.9f, 1.0f / (2.0f * 0.3f * 0.3f), ns, avx == 1, sum[avx], count[avx]);
+    }
+    CHECK(count[0] == ref.count);
+    const Vec3 fRef = ref.force(1.0f), f = ref.count > 0 ? Vec3(sum[0] * (-1.0f / static_cast<float>(count[0]))) : Vec3::Zero();
+    CHECK((f - fRef).norm() <= 1e-5f * (1.0f + fRef.norm()));
+#if SWARMSIM_X86_LANES
+    if (__builtin_cpu_supports("avx")) {
+      CHECK(count[1] == count[0]);
+      CHECK(sameBits(sum[0], sum[1]));
+    }
+#endif
+
+    // F_int over every point but the query (zones 0.3 / 0.8 / 1.5)
+    ZonalSum zref(0.3f, 0.8f, 1.5f, 0.2f, 3.0f, 13.0f);
+    ns.reserve(n);
+    std::size_t m = 0;
+    for (std::size_t i = 1; i < n; ++i, ++m) {
+      const Vec3 d = pts[i] - q, dv = vel[i] - vq;
+      zref.add(d.x(), d.y(), d.z(), d.squaredNorm(), dv.x(), dv.y(), dv.z());
+      ns.dx[m] = d.x();
+      ns.dy[m] = d.y();
+      ns.dz[m] = d.z();
+      ns.d2[m] = d.x() * d.x() + d.y() * d.y() + d.z() * d.z();
+      ns.ux[m] = dv.x();
+      ns.uy[m] = dv.y();
+      ns.uz[m] = dv.z();
+    }
+    const ZoneLanes zl = {zref.rRep2, zref.rAli2, zref.rAtt2, {0.2f, 3.0f, 13.0f}};
+    NearScratch copy = ns;
+    const Vec3 fz = zonalForce(m, zl, ns, false);
+    CHECK((fz - zref.force()).norm() <= 1e-5f * (1.0f + zref.force().norm()));
+#if SWARMSIM_X86_LANES
+    if (__builtin_cpu_supports("avx")) CHECK(sameBits(zonalForce(m, zl, copy, true), fz));
+#endif
+
+    // collectWithin: the entries within r of the query but the query itself, ascending
+    const float r2 = 0.5f;
+    for (int avx = 0; avx < 2; ++avx) {
+      const std::size_t got = collectWithin(block, 0, r2, ns, avx == 1);
+      std::vector<std::uint32_t> want;
+      for (std::size_t i = 1; i < n; ++i) {
+        if (block.d2[i] <= r2) want.push_back(static_cast<std::uint32_t>(i));
+      }
+      CHECK(std::vector<std::uint32_t>(ns.pick.begin(), ns.pick.begin() + static_cast<std::ptrdiff_t>(got)) == want);
+    }
+  }
+}
