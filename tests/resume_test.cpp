@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <filesystem>
@@ -53,13 +54,17 @@ std::string fileBytes(const std::string& path) { return swarmsim_test::readText(
 void killAndResume(int sig, int kills, const std::vector<std::string>& options, const std::vector<std::string>& refOptions,
                    unsigned seed) {
   TempDir dir;
+  const auto start = std::chrono::steady_clock::now();
   REQUIRE(runToEnd(dir, refOptions) == 0);
+  const auto refMs = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - start);
   fs::rename(dir.file("out.h5"), dir.file("ref.h5"));
   const std::string ref = fileBytes(dir.file("ref.h5"));
   REQUIRE(ref.size() > 1000);
 
   std::mt19937 rng(seed);
-  std::uniform_int_distribution<int> delay(0, 600);  // ms after the partial file appears
+  // ms after the partial file appears: within the first 60 % of an uninterrupted run's time, whatever the
+  // machine's speed (a fixed bound let every stop come after the end of a 0.5 s run)
+  std::uniform_int_distribution<int> delay(0, std::max(20, static_cast<int>(refMs.count() * 6 / 10)));
   int stoppedMidway = 0;
   for (int k = 0; k < kills; ++k) {
     std::vector<std::string> extra = options;

@@ -43,27 +43,32 @@ constexpr double kNormalize = 1.0 / 1.0364;
 // A batch of PerlinNoise3::kLanes points is one V4 (an AVX register: the entry with target("avx")) or, without
 // AVX, two halves of one V2 (an SSE2 register) each: a V4 there would take two registers per value, and the
 // blend's values would no longer fit in the 16 registers (that spilling made the SSE2 batch a third slower).
-// The functions taking vectors are internal and inlined (flatten) into each entry, so no call passes a 32-byte
+// The functions taking vectors are internal and always inlined into each entry, so no call passes a 32-byte
 // vector, whose ABI would depend on AVX (-Wno-psabi, lib/CMakeLists.txt, silences GCC's note about that ABI).
 typedef double V4 __attribute__((vector_size(32)));
 typedef double V2 __attribute__((vector_size(16)));
 static_assert(PerlinNoise3::kLanes == 4, "V4 holds one batch");
 
+// Every function that takes or returns a vector is always inlined: a call passing one would depend on the
+// caller's instruction set for its ABI (in the clang ASan build, flatten alone left some of them as calls,
+// and the AVX entry then computed wrong values: tests/noise_batch_test.cpp caught it).
+#define SWARMSIM_LANE_INLINE inline __attribute__((always_inline))
+
 template <typename T>
-inline T fade(T t) {
+SWARMSIM_LANE_INLINE T fade(T t) {
   return t * t * t * (t * (t * 6.0 - 15.0) + 10.0);
 }
 template <typename T>
-inline T dfade(T t) {  // fade'(t) = 30 t^2 (t - 1)^2
+SWARMSIM_LANE_INLINE T dfade(T t) {  // fade'(t) = 30 t^2 (t - 1)^2
   return 30.0 * t * t * (t - 1.0) * (t - 1.0);
 }
 template <typename T>
-inline T lerp(T a, T b, T t) {
+SWARMSIM_LANE_INLINE T lerp(T a, T b, T t) {
   return a + t * (b - a);
 }
 // g · (tx, ty, tz) for a corner gradient g (three doubles, or three lanes)
 template <typename G, typename T>
-inline T dot(const G& g, T tx, T ty, T tz) {
+SWARMSIM_LANE_INLINE T dot(const G& g, T tx, T ty, T tz) {
   return g[0] * tx + g[1] * ty + g[2] * tz;
 }
 inline double dotGrad(int hash, double x, double y, double z) { return dot(kGrad[hash & 15], x, y, z); }
@@ -89,7 +94,7 @@ inline void cornerGradients(const std::uint8_t* perm, int X, int Y, int Z, const
 // of the gradient at corner c, the corners named by (c_x, c_y, c_z) in the order 000, 100, 010, 110, 001, 101,
 // 011, 111; (x, y, z) the offset in the cell, (u, v, w) its fades and (du, dv, dw) their derivatives.
 template <typename T, typename Corners>
-inline T blend(const Corners& G, T x, T y, T z, T u, T v, T w, T du, T dv, T dw, T grad[3]) {
+SWARMSIM_LANE_INLINE T blend(const Corners& G, T x, T y, T z, T u, T v, T w, T du, T dv, T dw, T grad[3]) {
   // corner values g = G · (t − c)
   const T g000 = dot(G[0], x, y, z), g100 = dot(G[1], x - 1.0, y, z);
   const T g010 = dot(G[2], x, y - 1.0, z), g110 = dot(G[3], x - 1.0, y - 1.0, z);
@@ -120,13 +125,13 @@ inline T blend(const Corners& G, T x, T y, T z, T u, T v, T w, T du, T dv, T dw,
 }
 
 template <typename V>
-inline V load(const double* p) {
+SWARMSIM_LANE_INLINE V load(const double* p) {
   V v;
   std::memcpy(&v, p, sizeof v);
   return v;
 }
 template <typename V>
-inline void store(double* p, V v) {
+SWARMSIM_LANE_INLINE void store(double* p, V v) {
   std::memcpy(p, &v, sizeof v);
 }
 // std::floor per lane, exactly, in plain arithmetic (SSE2 has no rounding instruction, and a libm call per
@@ -135,7 +140,7 @@ inline void store(double* p, V v) {
 // which that sum turns into +0: t's sign bit is put back (a no-op on the nonzero results). Larger |t|,
 // infinities and NaN are their own floor.
 template <typename V>
-inline V floorLanes(V t) {
+SWARMSIM_LANE_INLINE V floorLanes(V t) {
   using I = decltype(t < t);  // 64-bit integer lanes, for the bits
   constexpr std::int64_t kSign = std::numeric_limits<std::int64_t>::min();
   constexpr std::int64_t kTwo52 = 0x4330000000000000;  // the bits of 2^52
@@ -154,7 +159,7 @@ inline V floorLanes(V t) {
 struct PerlinNoise3::Lanes {
   // the batch's lanes first, ..., first + width - 1 (width: the doubles in V)
   template <typename V>
-  static void run(const PerlinNoise3* noises, int count, const double* px, const double* py, const double* pz,
+  SWARMSIM_LANE_INLINE static void run(const PerlinNoise3* noises, int count, const double* px, const double* py, const double* pz,
                   double* value, double* gx, double* gy, double* gz, int first) {
     constexpr int W = sizeof(V) / sizeof(double);
     // what depends on the points only: the cells, the offsets in them, the fades and their derivatives
@@ -175,7 +180,7 @@ struct PerlinNoise3::Lanes {
       const double* g[W][8];
       for (int l = 0; l < W; ++l) cornerGradients(perm, cell[0][l], cell[1][l], cell[2][l], g[l]);
       // (vectors built whole: GCC takes lanes assigned one by one for possibly uninitialised reads)
-      const auto lanes = [&g](int c, int a) {
+      const auto lanes = [&g](int c, int a) __attribute__((always_inline)) {
         if constexpr (W == 4) {
           return V{g[0][c][a], g[1][c][a], g[2][c][a], g[3][c][a]};
         } else {

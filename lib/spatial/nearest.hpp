@@ -50,7 +50,7 @@ inline std::size_t blockKeys(const CellBlock& block, std::uint32_t k, float r, s
   std::size_t found = 0;
   for (std::size_t b = 0; b < block.size; ++b) {  // branch-free compaction
     out[found] = neighbourKey(d2[b], index[b]);
-    found += (d2[b] <= r2) & (index[b] != k) ? 1u : 0u;
+    found += static_cast<std::size_t>(d2[b] <= r2) & static_cast<std::size_t>(index[b] != k);
   }
   keys.resize(found);
   return found;

@@ -161,8 +161,9 @@ void UniformGrid::gatherBox(const int lo[3], const int hi[3], CellBlock& block) 
       total += start_[row + hi[0] + 1] - start_[row + lo[0]];
     }
   }
-  if (block.x.size() < total) {  // grows rarely; reused across steps
-    const std::size_t cap = total + total / 2 + 16;
+  // grows rarely; reused across steps. kSlack entries stay beyond size, for whole-lane loads.
+  if (block.x.size() < total + CellBlock::kSlack) {
+    const std::size_t cap = total + total / 2 + 2 * CellBlock::kSlack;
     block.x.resize(cap);
     block.y.resize(cap);
     block.z.resize(cap);

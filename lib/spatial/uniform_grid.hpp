@@ -31,6 +31,9 @@ struct CellBlock {
   std::vector<float> d2;             // scratch: squared distances of the last filter
   std::vector<std::uint32_t> hits;   // block indices found by the last filter
   std::size_t size = 0;
+  // every array holds at least size + kSlack entries (gatherBox), so a kernel may load whole lanes of up to
+  // 8 floats from any j < size (the entries past size hold leftovers: mask them off)
+  static constexpr std::size_t kSlack = 8;
   int lo[3] = {0, 0, 0}, hi[3] = {-1, -1, -1};  // the gathered box of cells (inclusive)
 
   // block indices of the candidates within r of q go to hits[0, returned count),

@@ -11,6 +11,8 @@ namespace {
 
 constexpr float kTiny = 1e-30f;  // floor of squared lengths: a zero vector times a finite reciprocal stays zero
 
+static_assert(kLanes <= CellBlock::kSlack, "collectLanes loads whole lanes past a block's size");
+
 inline std::size_t padded(std::size_t m) { return (m + kLanes - 1) / kLanes * kLanes; }
 
 // lanes 0..7 in order: the same bits for every lane type
@@ -50,7 +52,7 @@ template <typename L>
 inline std::size_t collectLanes(const CellBlock& block, std::uint32_t k, float r2, std::uint32_t* pick) {
   using V = typename L::V;
   const V r = L::set1(r2);
-  const float* d2 = block.d2.data();  // its capacity is a whole number of lanes beyond size
+  const float* d2 = block.d2.data();  // at least size + CellBlock::kSlack entries (kLanes <= kSlack)
   const std::uint32_t* index = block.index.data();
   std::size_t m = 0;
   for (std::size_t j = 0; j < block.size; j += kLanes) {

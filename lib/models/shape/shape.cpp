@@ -348,7 +348,7 @@ class ShapeModel final : public Model {
         for (std::size_t h = 0; h < hits; ++h) {  // branch-free compaction
           const std::uint32_t b = block.hits[h];
           ns.pick[m] = b;
-          m += (block.d2[b] <= r2) & (block.index[b] != k) ? 1u : 0u;
+          m += static_cast<std::size_t>(block.d2[b] <= r2) & static_cast<std::size_t>(block.index[b] != k);
         }
       } else {
         m = collectWithin(block, static_cast<std::uint32_t>(k), r * r, ns, avx);
