@@ -123,6 +123,9 @@ void printRow(const BenchRow& row, const BenchOptions& options, std::ostream& ou
         char num[32];
         std::snprintf(num, sizeof num, "%.4g", item.value().get<double>());
         v = num;
+      } else if (item.value().is_array() && item.value().size() > 2) {
+        // a long list (the shape model's keyframes: one per mesh and time) would bury the table
+        v = "[" + std::to_string(item.value().size()) + " entries; --json lists them]";
       } else {
         v = item.value().is_string() ? item.value().get<std::string>() : item.value().dump();
       }

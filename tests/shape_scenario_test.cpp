@@ -159,3 +159,22 @@ TEST_CASE("shape: bad input is refused with exit 2 and the JSON path", "[shape][
     CHECK_THAT(r.err, Contains(mesh));
   }
 }
+
+TEST_CASE("shape: bench's table keeps a keyframed swarm's facts to one short line", "[shape][cli]") {
+  // the galloping horse has a key per mesh and time (153 of them): the table says how many, --json lists them
+  TempDir dir;
+  const std::string args = "bench " + shellQuote(kScenarios + "running_horse.json") +
+                           " --set 'swarms[0].count=500' --frames 1 --repeat 1 --threads 1";
+  const auto table = runSwarmsim(args, dir.path());
+  INFO("stdout: " << table.out << "\nstderr: " << table.err);
+  REQUIRE(table.exitCode == 0);
+  CHECK_THAT(table.out, Contains("targets=[153 entries; --json lists them]"));
+  std::size_t longest = 0, start = 0;
+  for (std::size_t e = table.out.find('\n'); e != std::string::npos; start = e + 1, e = table.out.find('\n', start)) {
+    longest = std::max(longest, e - start);
+  }
+  CHECK(longest < 400);
+  const auto json = runSwarmsim(args + " --json", dir.path());
+  REQUIRE(json.exitCode == 0);
+  CHECK_THAT(json.out, Contains("horse_07.obj"));
+}
