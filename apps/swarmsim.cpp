@@ -17,6 +17,7 @@
 #include "eval/score.hpp"
 #include "io/scenario.hpp"
 #include "io/trajectory_reader.hpp"
+#include "models/fastswarm/reference.hpp"
 #include "run.hpp"
 #include "swarmsim/version.hpp"
 
@@ -152,6 +153,38 @@ int main(int argc, char** argv) {
   evaluate->add_option("--columns", evalOpt.source.csv.columns, "CSV columns, e.g. id=object,time=t,x=X,...")
       ->type_name("KEY=NAME,...");
 
+  // reference: FASTSWARM's (v, a) samples from real tracks
+  CLI::App* reference = app.add_subcommand("reference", "Build or describe a FASTSWARM reference of real (v, a) samples");
+  reference->require_subcommand(1);
+  fastswarm::ReferenceBuildOptions refOpt;
+  std::string refOut, refFrames, refInfoFile;
+  bool refForce = false, refInfoJson = false;
+  CLI::App* refBuild = reference->add_subcommand("build", "Difference real tracks (CSV or HDF5) into a reference file");
+  refBuild->add_option("tracks", refOpt.tracks, "Track files: CSV or swarmsim HDF5, as for evaluate")->required();
+  refBuild->add_option("-o,--output", refOut, "Reference file to write (HDF5)")->required();
+  refBuild->add_flag("--force", refForce, "Replace an existing swarmsim file");
+  refBuild->add_option("--group-size", refOpt.groupSize, "Samples per speed group (default 100)")
+      ->check(CLI::Range(static_cast<std::int64_t>(1), static_cast<std::int64_t>(1) << 40));
+  refBuild->add_option("--fence", refOpt.fence, "Tukey fence factor for |v| and |a| outliers (default 3; 0: none)")
+      ->check(CLI::NonNegativeNumber);
+  refBuild->add_option("--max-speed", refOpt.maxSpeed, "Drop samples faster than this, m/s (default 0: no bound)")
+      ->check(CLI::NonNegativeNumber);
+  refBuild->add_option("--max-accel", refOpt.maxAccel, "Drop samples with |a| above this, m/s^2 (default 0: no bound)")
+      ->check(CLI::NonNegativeNumber);
+  std::string refVelocity = "auto";
+  refBuild->add_option("--velocity", refVelocity,
+                       "v from the recorded velocities or from positions: auto (recorded when present), recorded, positions")
+      ->check(CLI::IsMember({"auto", "recorded", "positions"}));
+  refBuild->add_option("--swarm", refOpt.source.swarm, "Swarm of an HDF5 file (default: the only one)");
+  refBuild->add_option("--frames", refFrames, "Samples A:B of each file (half-open, either side optional)")
+      ->type_name("A:B");
+  refBuild->add_option("--delimiter", refOpt.source.csv.delimiter, "CSV delimiter: , ; or tab (default: detect)");
+  refBuild->add_option("--columns", refOpt.source.csv.columns, "CSV columns, e.g. id=object,time=t,x=X,...")
+      ->type_name("KEY=NAME,...");
+  CLI::App* refInfo = reference->add_subcommand("info", "Describe a reference file");
+  refInfo->add_option("file", refInfoFile, "Reference file")->required();
+  refInfo->add_flag("--json", refInfoJson, "Print JSON");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -233,6 +266,22 @@ int main(int argc, char** argv) {
       opt.repeat = benchRepeat;
       opt.json = benchJson;
       runBench(opt, std::cout);
+      return kExitOk;
+    }
+    if (*refBuild) {
+      if (!refFrames.empty()) refOpt.source.frames = eval::FrameRange::parse(refFrames);
+      refOpt.velocity = refVelocity == "recorded"    ? fastswarm::VelocitySource::Recorded
+                        : refVelocity == "positions" ? fastswarm::VelocitySource::Positions
+                                                     : fastswarm::VelocitySource::Auto;
+      if (refOut.empty()) throw InputError("-o/--output: empty path (expected a reference file path)");
+      const fastswarm::Reference ref = fastswarm::buildReference(refOpt);
+      fastswarm::writeReference(ref, refOut, refForce);
+      std::printf("reference: %zu samples in %zu speed groups from %zu file(s) -> %s\n", ref.size(), ref.groups(),
+                  ref.sources.size(), refOut.c_str());
+      return kExitOk;
+    }
+    if (*refInfo) {
+      fastswarm::printReferenceInfo(fastswarm::readReference(refInfoFile), refInfoFile, refInfoJson, std::cout);
       return kExitOk;
     }
     if (*evaluate) {

@@ -54,7 +54,7 @@ install_missing() {
 }
 # the build dependencies of scripts/setup.sh (without the Python tools), and clang
 install_missing build-essential cmake pkg-config libcli11-dev nlohmann-json3-dev libhdf5-dev \
-                libeigen3-dev libtinyobjloader-dev catch2 libnanoflann-dev clang
+                libeigen3-dev libtinyobjloader-dev catch2 libnanoflann-dev libssl-dev clang
 # clang's runtimes of the same version: sanitizers and libFuzzer (libclang-rt), OpenMP
 clang_major="$(clang --version | sed -n 's/.*clang version \([0-9]*\)\..*/\1/p' | head -n1)"
 if [ -z "$clang_major" ]; then

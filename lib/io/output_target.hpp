@@ -50,7 +50,8 @@ class OutputTarget {
 };
 
 // true when `path` is a regular file that is a swarmsim trajectory (HDF5 with
-// the format attribute) or is empty
+// the format attribute), a swarmsim reference (`swarmsim reference build`), or
+// is empty
 bool isOwnOutputFile(const std::string& path);
 
 }  // namespace swarmsim
