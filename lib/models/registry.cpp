@@ -1,6 +1,7 @@
 // The one place models are registered: one line per model.
 #include "models/boids/boids.hpp"
 #include "models/bswarm/bswarm.hpp"
+#include "models/fastswarm/fastswarm.hpp"
 #include "models/field/field.hpp"
 #include "models/model.hpp"
 #include "models/shape/shape.hpp"
@@ -13,6 +14,7 @@ const std::vector<ModelEntry>& modelRegistry() {
       {"field", "curl noise + fast-marching cost field with MDE, wang2014", &parseField},
       {"bswarm", "zonal forces + friction + stimuli + curl noise, ORCA collision avoidance, wang2015", &parseBswarm},
       {"shape", "insects forming keyframed target meshes along a B-spline path, chen2019", &parseShape},
+      {"fastswarm", "velocities picked from real (v, a) samples by energy minimisation, Xiang et al.", &parseFastswarm},
   };
   return entries;
 }

@@ -1,0 +1,151 @@
+#include "models/fastswarm/energy.hpp"
+
+#include <limits>
+
+namespace swarmsim::fastswarm {
+
+void Candidates::add(const Vec3& v, const Vec3& a) {
+  const Vec3 u = unitOrZero(v), b = unitOrZero(a);
+  vx.push_back(v.x());
+  vy.push_back(v.y());
+  vz.push_back(v.z());
+  ux.push_back(u.x());
+  uy.push_back(u.y());
+  uz.push_back(u.z());
+  bx.push_back(b.x());
+  by.push_back(b.y());
+  bz.push_back(b.z());
+  amag.push_back(a.norm());
+}
+
+namespace {
+
+// the terms that do not depend on the neighbours (eq. 7, 9, 10, 13) into e
+inline void ownTerms(const AgentInput& in, const Candidates& c, std::size_t k, const EnergyParams& p, EnergyTerms& e) {
+  const Vec3 v(c.vx[k], c.vy[k], c.vz[k]), u(c.ux[k], c.uy[k], c.uz[k]);
+  const float rho = p.rho;
+  // eq. 7: heading toward the swarm centre
+  if (p.w.cos > 0.0f) e.cos = p.w.cos * std::exp(rho * (u - in.center).norm());
+  // eq. 9: directional continuity
+  if (p.w.dir > 0.0f) e.dir = p.w.dir * std::exp(rho * (u - in.vhat).norm());
+  // eq. 10: continuity of the acceleration, a' = (v - v_t) / Δt against the sample's a
+  if (p.w.acc > 0.0f) {
+    const Vec3 a1 = (v - in.v) / p.dt;
+    const float m = a1.norm();
+    const Vec3 b1 = m > 0.0f ? Vec3(a1 / m) : Vec3::Zero();
+    const Vec3 b(c.bx[k], c.by[k], c.bz[k]);
+    e.adir = p.w.acc * std::exp(rho * (b1 - b).norm());
+    e.amag = p.w.acc * std::fabs(m - c.amag[k]);
+  }
+  // eq. 13: the noise's direction
+  if (p.w.n > 0.0f) e.n = p.w.n * std::exp(rho * (u - in.noise).norm());
+}
+
+inline float ownTotal(const EnergyTerms& e) { return e.cos + e.dir + e.adir + e.amag + e.n; }
+
+}  // namespace
+
+EnergyTerms energyTerms(const AgentInput& in, const Candidates& c, std::size_t k, const EnergyParams& p) {
+  EnergyTerms e;
+  const Vec3 v(c.vx[k], c.vy[k], c.vz[k]);
+  const float rho = p.rho;
+  // eq. 4: repulsion from the predicted positions (agent i with v, neighbour j with its own velocity)
+  if (p.w.rep > 0.0f && in.rep > 0) {
+    const Vec3 q = in.p + v * p.dt;
+    const float inv = 1.0f / p.dRep;
+    float s = 0.0f;
+    for (std::size_t j = 0; j < in.rep; ++j) {
+      const Vec3 d(q.x() - in.repX[j], q.y() - in.repY[j], q.z() - in.repZ[j]);
+      s += std::exp(rho * (1.0f - d.norm() * inv));
+    }
+    e.rep = p.w.rep * s / static_cast<float>(in.rep);
+  }
+  // eq. 6: attraction toward the neighbours' current positions
+  if (p.w.oa > 0.0f && in.att > 0) {
+    const Vec3 q = in.p + v * p.dt;
+    const float inv = 1.0f / p.dAtt1;
+    float s = 0.0f;
+    for (std::size_t j = 0; j < in.att; ++j) {
+      const Vec3 d(q.x() - in.attX[j], q.y() - in.attY[j], q.z() - in.attZ[j]);
+      s += std::exp(rho * (d.norm() * inv - 1.0f));
+    }
+    e.oa = p.w.oa * s / static_cast<float>(in.att);
+  }
+  ownTerms(in, c, k, p, e);
+  return e;
+}
+
+std::size_t argminEnergy(const AgentInput& in, const Candidates& c, std::size_t first, std::size_t last,
+                         const EnergyParams& p, float* best) {
+  std::size_t arg = first;
+  float least = std::numeric_limits<float>::infinity();
+  for (std::size_t k = first; k < last; ++k) {
+    const float e = energyTerms(in, c, k, p).total();
+    if (e < least) {  // strict: the lowest index wins a tie
+      least = e;
+      arg = k;
+    }
+  }
+  if (best) *best = least;
+  return arg;
+}
+
+void BoundFactors::build(const Candidates& c, const EnergyParams& p) {
+  rep.resize(c.size());
+  oa.resize(c.size());
+  for (std::size_t k = 0; k < c.size(); ++k) {
+    const float step = std::sqrt(c.vx[k] * c.vx[k] + c.vy[k] * c.vy[k] + c.vz[k] * c.vz[k]) * p.dt;
+    // a little below the exact factor: float rounding of the sums must not lift the bound above E
+    rep[k] = std::exp(-p.rho * step / p.dRep) * (1.0f - 1e-3f);
+    oa[k] = std::exp(-p.rho * step / p.dAtt1) * (1.0f - 1e-3f);
+  }
+}
+
+std::size_t argminEnergyBounded(const AgentInput& in, const Candidates& c, const BoundFactors& f, std::size_t first,
+                                std::size_t last, const EnergyParams& p, std::vector<float>& lower, float* best) {
+  // the interaction energies at q = p (no move): each neighbour's distance changes by at most |v| Δt
+  float rep0 = 0.0f, oa0 = 0.0f;
+  if (p.w.rep > 0.0f && in.rep > 0) {
+    for (std::size_t j = 0; j < in.rep; ++j) {
+      const Vec3 d(in.p.x() - in.repX[j], in.p.y() - in.repY[j], in.p.z() - in.repZ[j]);
+      rep0 += std::exp(p.rho * (1.0f - d.norm() / p.dRep));
+    }
+    rep0 *= p.w.rep / static_cast<float>(in.rep);
+  }
+  if (p.w.oa > 0.0f && in.att > 0) {
+    for (std::size_t j = 0; j < in.att; ++j) {
+      const Vec3 d(in.p.x() - in.attX[j], in.p.y() - in.attY[j], in.p.z() - in.attZ[j]);
+      oa0 += std::exp(p.rho * (d.norm() / p.dAtt1 - 1.0f));
+    }
+    oa0 *= p.w.oa / static_cast<float>(in.att);
+  }
+  // lower bounds: the own terms exactly (the same arithmetic as energyTerms), the interaction bounded below
+  lower.resize(last - first);
+  std::size_t start = first;
+  float startBound = std::numeric_limits<float>::infinity();
+  for (std::size_t k = first; k < last; ++k) {
+    EnergyTerms e;
+    ownTerms(in, c, k, p, e);
+    const float lb = ownTotal(e) + f.rep[k] * rep0 + f.oa[k] * oa0;
+    lower[k - first] = lb;
+    if (lb < startBound) {
+      startBound = lb;
+      start = k;
+    }
+  }
+  // the exact E where the bound is least, then wherever the bound could still beat the best so far
+  std::size_t arg = start;
+  float least = energyTerms(in, c, start, p).total();
+  for (std::size_t k = first; k < last; ++k) {
+    if (k == start || !(lower[k - first] <= least)) continue;
+    const float e = energyTerms(in, c, k, p).total();
+    if (e < least || (e == least && k < arg)) {  // the lowest index wins a tie, as in argminEnergy
+      least = e;
+      arg = k;
+    }
+  }
+  if (best) *best = least;
+  return arg;
+}
+
+}  // namespace swarmsim::fastswarm

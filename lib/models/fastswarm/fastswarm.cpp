@@ -1,0 +1,243 @@
+#include "models/fastswarm/fastswarm.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+#include "core/error.hpp"
+#include "core/parallel.hpp"
+#include "fields/curl_noise.hpp"
+#include "fields/noise_field.hpp"
+#include "geometry/obstacles.hpp"
+#include "geometry/signed_distance.hpp"
+#include "models/params_util.hpp"
+#include "spatial/uniform_grid.hpp"
+
+namespace swarmsim {
+
+namespace fastswarm {
+
+void candidateRange(const Reference& ref, double speed, std::int64_t k, std::size_t& first, std::size_t& last) {
+  const auto groups = static_cast<std::int64_t>(ref.groups());
+  const std::int64_t size = std::max<std::int64_t>(1, ref.groupSize);
+  std::int64_t want = std::max<std::int64_t>(1, (k + size - 1) / size);  // whole groups holding >= k samples
+  if (want % 2 == 0) ++want;                                              // as many on each side
+  want = std::min(want, groups);
+  const auto g = static_cast<std::int64_t>(ref.groupOfSpeed(speed));
+  std::int64_t lo = g - (want - 1) / 2;
+  lo = std::clamp<std::int64_t>(lo, 0, groups - want);
+  first = static_cast<std::size_t>(ref.groupStart[static_cast<std::size_t>(lo)]);
+  last = static_cast<std::size_t>(ref.groupStart[static_cast<std::size_t>(lo + want)]);
+}
+
+}  // namespace fastswarm
+
+namespace {
+
+using fastswarm::AgentInput;
+using fastswarm::Candidates;
+
+class FastswarmConfig final : public ModelConfig {
+ public:
+  explicit FastswarmConfig(FastswarmParams p) : p_(std::move(p)) {}
+  std::unique_ptr<Model> build(const World& world) const override { return makeFastswarm(p_, world); }
+
+ private:
+  FastswarmParams p_;
+};
+
+// per-thread scratch: one agent's neighbours
+struct Scratch {
+  std::vector<float> rx, ry, rz, ax, ay, az;
+  std::vector<float> lower;  // the candidates' lower bounds
+};
+
+class Fastswarm final : public Model {
+ public:
+  Fastswarm(const FastswarmParams& p, const World& world) : p_(p) {
+    const fastswarm::Reference& ref = *p_.reference;
+    for (std::size_t i = 0; i < ref.size(); ++i) {
+      cand_.add(Vec3(static_cast<float>(ref.v[3 * i]), static_cast<float>(ref.v[3 * i + 1]),
+                     static_cast<float>(ref.v[3 * i + 2])),
+                Vec3(static_cast<float>(ref.a[3 * i]), static_cast<float>(ref.a[3 * i + 1]),
+                     static_cast<float>(ref.a[3 * i + 2])));
+    }
+    p_.energy.dt = static_cast<float>(world.dt);
+    bounds_.build(cand_, p_.energy);
+    // f_N: the direction of curl noise (eq. 13), blended along obstacles and walls as everywhere in swarmsim
+    const Obstacles& obs = *world.obstacles;
+    const GridSpec spec =
+        GridSpec::covering(world.domain.min, world.domain.max, cellsForEdge(world.domain, world.domain.extent().maxCoeff() / 64.0, 1e6));
+    boundary_ = signedDistance(obs, spec);
+    addBoxWalls(boundary_, world.domain);
+    NoiseParams np;
+    np.scale = 1.0;
+    np.unit = p_.noiseScale;
+    np.gain = 1.0;  // only the direction is used
+    np.seeds = p_.seeds;
+    np.d0 = 0.5 * p_.noiseScale;
+    noise_ = NoiseField(NoiseFieldKind::kCurl, np, world.domain, obs, {0, 0, 0}, &boundary_);
+  }
+
+  void step(const World& world, SwarmState& s, const StepInfo& info) override {
+    (void)info;
+    const std::size_t n = s.size();
+    const float dAtt2 = static_cast<float>(p_.dAtt2);
+    grid_.build(s.px.data(), s.py.data(), s.pz.data(), n, dAtt2);
+    const auto& order = grid_.order();
+    const float* sx = grid_.sortedX().data();
+    const float* sy = grid_.sortedY().data();
+    const float* sz = grid_.sortedZ().data();
+    grid_.gather(s.vx, vx_);
+    grid_.gather(s.vy, vy_);
+    grid_.gather(s.vz, vz_);
+    // the swarm centre of E_cos: fixed, or the centroid (summed in state order: the same for any thread count)
+    Vec3 center = Vec3::Zero();
+    if (p_.center) {
+      center = p_.center->cast<float>();
+    } else if (n > 0) {
+      Vec3d sum = Vec3d::Zero();
+      for (std::size_t i = 0; i < n; ++i) sum += Vec3d(s.px[i], s.py[i], s.pz[i]);
+      center = (sum / static_cast<double>(n)).cast<float>();
+    }
+    // v̂^n: the noise's direction at each agent (eq. 1: f_N of the current state)
+    for (auto* a : {&nx_, &ny_, &nz_}) a->resize(n);
+    parallelChunks(n, [&](std::size_t first, std::size_t last, int) {
+      noise_.evaluateBatch(sx + first, sy + first, sz + first, last - first, nx_.data() + first, ny_.data() + first,
+                           nz_.data() + first);
+    });
+    if (scratch_.size() < static_cast<std::size_t>(threadCount())) scratch_.resize(static_cast<std::size_t>(threadCount()));
+    next_.resizeStorage(n);
+    const float dt = static_cast<float>(world.dt);
+    const float rep2 = p_.energy.dRep * p_.energy.dRep, att12 = p_.energy.dAtt1 * p_.energy.dAtt1;
+    const fastswarm::Reference& ref = *p_.reference;
+    forEachPointNeighbors(grid_, dAtt2, blocks_, [&](std::uint32_t k, const CellBlock& block, std::size_t hits) {
+      Scratch& sc = scratch_[static_cast<std::size_t>(threadIndex())];
+      for (auto* a : {&sc.rx, &sc.ry, &sc.rz, &sc.ax, &sc.ay, &sc.az}) a->clear();
+      // the zones, in the block's (deterministic) order: repulsion within d_rep (predicted positions),
+      // attraction from d_att,1 to d_att,2 (current positions)
+      for (std::size_t h = 0; h < hits; ++h) {
+        const std::uint32_t b = block.hits[h];
+        const std::uint32_t j = block.index[b];
+        if (j == k) continue;
+        const float d2 = block.d2[b];
+        if (d2 < rep2) {
+          sc.rx.push_back(block.x[b] + vx_[j] * dt);
+          sc.ry.push_back(block.y[b] + vy_[j] * dt);
+          sc.rz.push_back(block.z[b] + vz_[j] * dt);
+        } else if (d2 >= att12) {
+          sc.ax.push_back(block.x[b]);
+          sc.ay.push_back(block.y[b]);
+          sc.az.push_back(block.z[b]);
+        }
+      }
+      AgentInput in;
+      in.p = Vec3(sx[k], sy[k], sz[k]);
+      in.v = Vec3(vx_[k], vy_[k], vz_[k]);
+      in.vhat = fastswarm::unitOrZero(in.v);
+      in.center = fastswarm::unitOrZero(center - in.p);
+      in.noise = fastswarm::unitOrZero(Vec3(nx_[k], ny_[k], nz_[k]));
+      in.repX = sc.rx.data();
+      in.repY = sc.ry.data();
+      in.repZ = sc.rz.data();
+      in.rep = sc.rx.size();
+      in.attX = sc.ax.data();
+      in.attY = sc.ay.data();
+      in.attZ = sc.az.data();
+      in.att = sc.ax.size();
+      std::size_t first = 0, last = 0;
+      fastswarm::candidateRange(ref, static_cast<double>(in.v.norm()), p_.candidates, first, last);
+      const std::size_t c = fastswarm::argminEnergyBounded(in, cand_, bounds_, first, last, p_.energy, sc.lower);
+      const Vec3 v(cand_.vx[c], cand_.vy[c], cand_.vz[c]);
+      next_.id[k] = s.id[order[k]];
+      next_.vx[k] = v.x();
+      next_.vy[k] = v.y();
+      next_.vz[k] = v.z();
+      next_.px[k] = in.p.x() + v.x() * dt;
+      next_.py[k] = in.p.y() + v.y() * dt;
+      next_.pz[k] = in.p.z() + v.z() * dt;
+    });
+    s.swapStorage(next_);
+  }
+
+  Json facts() const override {
+    const fastswarm::Reference& ref = *p_.reference;
+    return {{"reference", p_.referencePath},
+            {"reference_samples", ref.size()},
+            {"reference_groups", ref.groups()},
+            {"reference_dt", ref.dt}};
+  }
+
+ private:
+  FastswarmParams p_;
+  Candidates cand_;
+  fastswarm::BoundFactors bounds_;
+  Grid3<float> boundary_;
+  NoiseField noise_;
+  UniformGrid grid_;
+  std::vector<float> vx_, vy_, vz_, nx_, ny_, nz_;  // by sorted position
+  std::vector<Scratch> scratch_;
+  std::vector<CellBlock> blocks_;
+  SwarmState next_;
+};
+
+}  // namespace
+
+FastswarmParams readFastswarmParams(JsonReader& r, const ModelContext& context) {
+  FastswarmParams p;
+  namespace fs = std::filesystem;
+  const std::string rel = r.requireString("reference");
+  const fs::path path = fs::path(rel).is_relative() ? fs::path(context.scenarioFile).parent_path() / rel : fs::path(rel);
+  p.referencePath = path.lexically_normal().string();
+  try {
+    p.reference = std::make_shared<const fastswarm::Reference>(fastswarm::readReference(p.referencePath));
+  } catch (const InputError& e) {
+    r.fail("reference", e.what());
+  }
+  if (std::fabs(p.reference->dt - context.world.dt) > 1e-6 * p.reference->dt) {
+    context.warnings.push_back(r.pathOf("reference") + ": the reference's samples are " +
+                               std::to_string(p.reference->dt) + " s apart, the scenario's dt is " +
+                               std::to_string(context.world.dt) + " s (eq. 10 compares accelerations over dt)");
+  }
+  fastswarm::EnergyParams& e = p.energy;
+  const Range weight = Range::nonNegative().limited(0.0, 1e6);
+  e.rho = static_cast<float>(r.number("rho", e.rho, Range::positive().limited(1e-6, 20.0)));
+  e.w.rep = static_cast<float>(r.number("w_rep", e.w.rep, weight));
+  e.w.oa = static_cast<float>(r.number("w_oa", e.w.oa, weight));
+  e.w.cos = static_cast<float>(r.number("w_cos", e.w.cos, weight));
+  e.w.dir = static_cast<float>(r.number("w_dir", e.w.dir, weight));
+  e.w.acc = static_cast<float>(r.number("w_acc", e.w.acc, weight));
+  e.w.n = static_cast<float>(r.number("w_n", e.w.n, weight));
+  e.dRep = static_cast<float>(r.number("d_rep", e.dRep, Range::length()));
+  e.dAtt1 = static_cast<float>(r.number("d_att1", e.dAtt1, Range::length()));
+  p.dAtt2 = r.number("d_att2", p.dAtt2, Range::length());
+  if (!(e.dAtt1 <= p.dAtt2)) r.fail("d_att2", "expected d_att1 <= d_att2");
+  p.candidates = r.integer("candidates", p.candidates, 1, 100000000);
+  const Json* c = r.raw("center");
+  if (c && c->is_string()) {
+    if (c->get<std::string>() != "swarm") r.failExpected("center", "\"swarm\" or a point [x, y, z]", *c);
+    r.resolve("center", "swarm");
+  } else if (c) {
+    p.center = r.vec3("center", Vec3d::Zero(), Range::coordinate());
+  } else {
+    r.resolve("center", "swarm");
+  }
+  {
+    JsonReader nz = r.object("noise", false);
+    p.noiseScale = nz.number("scale", p.noiseScale, Range::length());
+    checkNoiseFrequency(nz, "scale", context.world.domain, 1.0, 1.0 / p.noiseScale);
+    readSeeds(nz, "seeds", p.seeds);
+    nz.finish();
+  }
+  return p;
+}
+
+std::shared_ptr<const ModelConfig> parseFastswarm(JsonReader& params, const ModelContext& context) {
+  return std::make_shared<FastswarmConfig>(readFastswarmParams(params, context));
+}
+
+std::unique_ptr<Model> makeFastswarm(const FastswarmParams& params, const World& world) {
+  return std::make_unique<Fastswarm>(params, world);
+}
+
+}  // namespace swarmsim

@@ -1,0 +1,41 @@
+#pragma once
+// FASTSWARM (Xiang, Yao, Wang, Jin): each step every agent takes the velocity v of the reference sample
+// d_v = [v, a] (real insects, reference.hpp) that minimises
+//   E = E_rep + E_oa + E_cos + E_dir + E_acc + E_n                                   (eq. 2-13; energy.hpp)
+// over the samples of its speed group and the neighbouring groups (about `candidates` samples), then
+// p += v Δt. Neighbours come from the step's uniform grid. Not yet: stimuli (E_env), user control (E_user),
+// trajectory synthesis. docs/models/fastswarm.md has the equations as implemented and every parameter.
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "models/fastswarm/energy.hpp"
+#include "models/fastswarm/reference.hpp"
+#include "models/model.hpp"
+
+namespace swarmsim {
+
+struct FastswarmParams {
+  std::string referencePath;  // resolved against the scenario's folder
+  std::shared_ptr<const fastswarm::Reference> reference;
+  fastswarm::EnergyParams energy;  // ρ, weights, d_rep, d_att,1 (dt: the scenario's)
+  double dAtt2 = 1.0;              // d_att,2, m: outer radius of the attraction zone
+  std::int64_t candidates = 300;   // k: samples searched per agent (whole speed groups about its own)
+  std::optional<Vec3d> center;     // the swarm centre of E_cos; none: the swarm's centroid each step
+  double noiseScale = 0.5;         // lattice cell of the curl noise, m
+  std::array<std::uint64_t, 3> seeds = {1, 2, 3};
+};
+
+FastswarmParams readFastswarmParams(JsonReader& params, const ModelContext& context);
+std::shared_ptr<const ModelConfig> parseFastswarm(JsonReader& params, const ModelContext& context);
+std::unique_ptr<Model> makeFastswarm(const FastswarmParams& params, const World& world);
+
+namespace fastswarm {
+// the groups searched for an agent of speed s: 2h + 1 whole groups about its own (h from k and the group
+// size), shifted inward at the ends of the speed range; [first, last) in samples
+void candidateRange(const Reference& ref, double speed, std::int64_t k, std::size_t& first, std::size_t& last);
+}  // namespace fastswarm
+
+}  // namespace swarmsim

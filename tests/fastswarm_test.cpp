@@ -1,0 +1,236 @@
+// The fastswarm model (models/fastswarm): each energy term against values worked out by hand, the argmin
+// against a brute-force minimum of an independent double-precision E, the speed-group window, and end to
+// end: every velocity taken is a reference sample, the swarm holds station, 1 and 2 threads give the same
+// bytes, and bad parameters are exit 2.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <cstring>
+#include <random>
+#include <set>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "io/trajectory_reader.hpp"
+#include "models/fastswarm/energy.hpp"
+#include "models/fastswarm/fastswarm.hpp"
+#include "models/fastswarm/reference.hpp"
+#include "test_util.hpp"
+
+using namespace swarmsim::fastswarm;
+using Catch::Matchers::Contains;
+using swarmsim::Vec3;
+using swarmsim_test::runSwarmsim;
+using swarmsim_test::shellQuote;
+using swarmsim_test::TempDir;
+
+namespace {
+
+const std::string kScenario = swarmsim_test::kSourceTree + "/scenarios/fastswarm_aggregation_300.json";
+
+}  // namespace
+
+TEST_CASE("fastswarm: each energy term against a hand-worked value", "[fastswarm]") {
+  EnergyParams p;
+  p.rho = 2.5f;
+  p.dRep = 0.1f;
+  p.dAtt1 = 0.3f;
+  p.dt = 0.1f;
+  p.w = {1.0f, 2.0f, 0.5f, 1.5f, 0.7f, 0.3f};
+  Candidates c;
+  c.add(Vec3(0, 2, 0), Vec3(3, 0, 4));  // v̂ = (0, 1, 0), |a| = 5, â = (0.6, 0, 0.8)
+  // agent at the origin flying along x; the centre straight along y, the noise along z
+  const float repX[] = {0.0f, 0.1f}, repY[] = {0.25f, 0.2f}, repZ[] = {0.0f, 0.0f};
+  const float attX[] = {0.0f}, attY[] = {0.8f}, attZ[] = {0.0f};
+  AgentInput in;
+  in.v = Vec3(1, 0, 0);
+  in.vhat = Vec3(1, 0, 0);
+  in.center = Vec3(0, 1, 0);
+  in.noise = Vec3(0, 0, 1);
+  in.repX = repX, in.repY = repY, in.repZ = repZ, in.rep = 2;
+  in.attX = attX, in.attY = attY, in.attZ = attZ, in.att = 1;
+  const EnergyTerms e = energyTerms(in, c, 0, p);
+  // p' = v Δt = (0, 0.2, 0): the repulsion neighbours (predicted) are 0.05 and 0.1 away -> e^{2.5 (1 - 0.5)} and
+  // e^0, averaged; the attraction neighbour is 0.6 away -> e^{2.5 (0.6 / 0.3 - 1)}
+  CHECK(e.rep == Approx(1.0 * (std::exp(1.25) + 1.0) / 2.0).epsilon(1e-5));
+  CHECK(e.oa == Approx(2.0 * std::exp(2.5)).epsilon(1e-5));
+  CHECK(e.cos == Approx(0.5 * std::exp(0.0)).epsilon(1e-6));           // v̂ is the centre's direction
+  CHECK(e.dir == Approx(1.5 * std::exp(2.5 * std::sqrt(2.0))).epsilon(1e-5));  // 90 degrees from v̂_t
+  // a' = (v - v_t) / Δt = (-10, 20, 0): |a'| = sqrt(500), â' = (-1, 2, 0) / sqrt(5)
+  const double s5 = std::sqrt(5.0);
+  const double adir = std::sqrt(std::pow(-1.0 / s5 - 0.6, 2) + std::pow(2.0 / s5, 2) + std::pow(0.8, 2));
+  CHECK(e.adir == Approx(0.7 * std::exp(2.5 * adir)).epsilon(1e-5));
+  CHECK(e.amag == Approx(0.7 * (std::sqrt(500.0) - 5.0)).epsilon(1e-5));
+  CHECK(e.n == Approx(0.3 * std::exp(2.5 * std::sqrt(2.0))).epsilon(1e-5));
+  CHECK(e.total() == Approx(e.rep + e.oa + e.cos + e.dir + e.adir + e.amag + e.n));
+  // no neighbours: no interaction energy; a zero weight: no term
+  AgentInput alone = in;
+  alone.rep = alone.att = 0;
+  p.w.dir = 0.0f;
+  const EnergyTerms f = energyTerms(alone, c, 0, p);
+  CHECK(f.rep == 0.0f);
+  CHECK(f.oa == 0.0f);
+  CHECK(f.dir == 0.0f);
+}
+
+TEST_CASE("fastswarm: the argmin is the brute-force minimum of E over the same candidates", "[fastswarm]") {
+  std::mt19937 rng(5);
+  std::normal_distribution<float> g(0.0f, 1.0f);
+  std::uniform_real_distribution<float> u(-0.5f, 0.5f);
+  const auto unit = [](Vec3 x) { return unitOrZero(x); };
+  EnergyParams p;  // Table 1's aggregation weights, ρ 2.5
+  p.dt = 0.02f;
+  Candidates c;
+  std::vector<std::array<double, 6>> samples;
+  for (int k = 0; k < 300; ++k) {
+    const Vec3 v(0.5f * g(rng), 0.5f * g(rng), 0.5f * g(rng)), a(2 * g(rng), 2 * g(rng), 2 * g(rng));
+    c.add(v, a);
+    samples.push_back({v.x(), v.y(), v.z(), a.x(), a.y(), a.z()});
+  }
+  for (int trial = 0; trial < 50; ++trial) {
+    std::vector<float> rx, ry, rz, ax, ay, az;
+    for (int j = 0; j < 3; ++j) rx.push_back(0.05f * u(rng)), ry.push_back(0.05f * u(rng)), rz.push_back(0.05f * u(rng));
+    for (int j = 0; j < 12; ++j) ax.push_back(2 * u(rng)), ay.push_back(2 * u(rng)), az.push_back(2 * u(rng));
+    AgentInput in;
+    in.v = Vec3(0.4f * g(rng), 0.4f * g(rng), 0.4f * g(rng));
+    in.vhat = unit(in.v);
+    in.center = unit(Vec3(g(rng), g(rng), g(rng)));
+    in.noise = unit(Vec3(g(rng), g(rng), g(rng)));
+    in.repX = rx.data(), in.repY = ry.data(), in.repZ = rz.data(), in.rep = rx.size();
+    in.attX = ax.data(), in.attY = ay.data(), in.attZ = az.data(), in.att = ax.size();
+    // E in double, written out again from the paper's equations
+    const double rho = 2.5;
+    const auto nrm = [](double x, double y, double z) { return std::sqrt(x * x + y * y + z * z); };
+    std::vector<double> E;
+    for (const auto& s : samples) {
+      const double sv = nrm(s[0], s[1], s[2]), sa = nrm(s[3], s[4], s[5]);
+      const double vh[3] = {s[0] / sv, s[1] / sv, s[2] / sv}, ah[3] = {s[3] / sa, s[4] / sa, s[5] / sa};
+      const double q[3] = {s[0] * 0.02, s[1] * 0.02, s[2] * 0.02};  // p = 0
+      double rep = 0, att = 0;
+      for (std::size_t j = 0; j < rx.size(); ++j) rep += std::exp(rho * (1 - nrm(q[0] - rx[j], q[1] - ry[j], q[2] - rz[j]) / 0.1));
+      for (std::size_t j = 0; j < ax.size(); ++j) att += std::exp(rho * (nrm(q[0] - ax[j], q[1] - ay[j], q[2] - az[j]) / 0.3 - 1));
+      const double ap[3] = {(s[0] - in.v.x()) / 0.02, (s[1] - in.v.y()) / 0.02, (s[2] - in.v.z()) / 0.02};
+      const double am = nrm(ap[0], ap[1], ap[2]);
+      double e = rep / rx.size() + att / ax.size();
+      e += 0.05 * std::exp(rho * nrm(vh[0] - in.center.x(), vh[1] - in.center.y(), vh[2] - in.center.z()));
+      e += std::exp(rho * nrm(vh[0] - in.vhat.x(), vh[1] - in.vhat.y(), vh[2] - in.vhat.z()));
+      e += std::exp(rho * nrm(ap[0] / am - ah[0], ap[1] / am - ah[1], ap[2] / am - ah[2])) + std::fabs(am - sa);
+      e += 0.2 * std::exp(rho * nrm(vh[0] - in.noise.x(), vh[1] - in.noise.y(), vh[2] - in.noise.z()));
+      E.push_back(e);
+    }
+    // the search window [40, 260): the minimum there
+    std::size_t want = 40;
+    for (std::size_t k = 40; k < 260; ++k) {
+      if (E[k] < E[want]) want = k;
+    }
+    float best = 0.0f;
+    const std::size_t got = argminEnergy(in, c, 40, 260, p, &best);
+    INFO("trial " << trial << ": got " << got << " (E " << E[got] << "), brute force " << want << " (E " << E[want] << ")");
+    CHECK(got >= 40);
+    CHECK(got < 260);
+    // the same candidate, unless two are tied within float rounding
+    CHECK((got == want || std::fabs(E[got] - E[want]) <= 1e-5 * E[want]));
+    CHECK(best == Approx(E[want]).epsilon(1e-4));
+    // branch and bound: the very same candidate and E as the plain scan
+    BoundFactors f;
+    f.build(c, p);
+    std::vector<float> lower;
+    float bestBounded = 0.0f;
+    CHECK(argminEnergyBounded(in, c, f, 40, 260, p, lower, &bestBounded) == got);
+    CHECK(bestBounded == best);
+    // and the bound is one: never above a candidate's E
+    for (std::size_t k = 40; k < 260; ++k) CHECK(lower[k - 40] <= energyTerms(in, c, k, p).total());
+  }
+}
+
+TEST_CASE("fastswarm: the speed-group window holds the agent's group and its neighbours", "[fastswarm]") {
+  Reference ref;
+  ref.groupSize = 10;
+  for (int i = 0; i < 100; ++i) ref.speed.push_back(0.01 * i);  // group g: speeds [0.1 g, 0.1 g + 0.09]
+  for (int g = 0; g <= 10; ++g) ref.groupStart.push_back(10 * g);
+  const auto window = [&](double s, std::int64_t k) {
+    std::size_t a = 0, b = 0;
+    swarmsim::fastswarm::candidateRange(ref, s, k, a, b);
+    return std::make_pair(a, b);
+  };
+  CHECK(window(0.55, 30) == std::make_pair<std::size_t, std::size_t>(40, 70));   // groups 4, 5, 6
+  CHECK(window(0.55, 25) == std::make_pair<std::size_t, std::size_t>(40, 70));   // 3 groups hold >= 25
+  CHECK(window(0.55, 40) == std::make_pair<std::size_t, std::size_t>(30, 80));   // 4 -> 5 groups: 3..7
+  CHECK(window(0.55, 10) == std::make_pair<std::size_t, std::size_t>(50, 60));   // its own group
+  CHECK(window(0.0, 30) == std::make_pair<std::size_t, std::size_t>(0, 30));     // shifted in at the ends
+  CHECK(window(-1.0, 30) == std::make_pair<std::size_t, std::size_t>(0, 30));
+  CHECK(window(0.99, 30) == std::make_pair<std::size_t, std::size_t>(70, 100));
+  CHECK(window(5.0, 30) == std::make_pair<std::size_t, std::size_t>(70, 100));
+  CHECK(window(0.3, 100000) == std::make_pair<std::size_t, std::size_t>(0, 100));  // everything
+}
+
+TEST_CASE("fastswarm: agents fly the reference's velocities, hold station, and 1 and 2 threads agree",
+          "[fastswarm][scenario]") {
+  TempDir dir;
+  const std::string base =
+      "run " + shellQuote(kScenario) + " --set 'swarms[0].count=60' --frames 250 --fixed-threads --quiet";
+  for (const int t : {1, 2}) {
+    const auto r = runSwarmsim(base + " --threads " + std::to_string(t) + " -o t" + std::to_string(t) + ".h5", dir.path());
+    INFO(r.err);
+    REQUIRE(r.exitCode == 0);
+  }
+  // every dataset, bit for bit (the files differ only in the output path they record)
+  for (const char* d : {"swarms/mosquitoes/position", "swarms/mosquitoes/velocity"}) {
+    INFO(d);
+    const auto a = swarmsim::readFloatDataset(dir.file("t1.h5"), d), b = swarmsim::readFloatDataset(dir.file("t2.h5"), d);
+    REQUIRE(a.size() == b.size());
+    CHECK(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0);
+  }
+  const Reference ref = readReference(swarmsim_test::kSourceTree + "/data/reference/anopheles_moustic.h5");
+  std::set<std::tuple<float, float, float>> velocities;
+  for (std::size_t i = 0; i < ref.size(); ++i) {
+    velocities.insert({static_cast<float>(ref.v[3 * i]), static_cast<float>(ref.v[3 * i + 1]), static_cast<float>(ref.v[3 * i + 2])});
+  }
+  std::vector<std::uint64_t> shape;
+  const auto pos = swarmsim::readFloatDataset(dir.file("t1.h5"), "swarms/mosquitoes/position", &shape);
+  const auto vel = swarmsim::readFloatDataset(dir.file("t1.h5"), "swarms/mosquitoes/velocity");
+  REQUIRE(shape.size() == 3);
+  REQUIRE(shape[0] == 250);
+  REQUIRE(shape[1] == 60);
+  const std::size_t frames = shape[0], agents = shape[1];
+  std::size_t notSample = 0;
+  double meanSpeed = 0.0, far = 0.0;
+  for (std::size_t f = 1; f < frames; ++f) {
+    Vec3 centroid = Vec3::Zero();
+    for (std::size_t a = 0; a < agents; ++a) {
+      const std::size_t at = 3 * (f * agents + a);
+      const Vec3 v(vel[at], vel[at + 1], vel[at + 2]);
+      notSample += velocities.count({v.x(), v.y(), v.z()}) == 0 ? 1 : 0;
+      meanSpeed += v.norm();
+      centroid += Vec3(pos[at], pos[at + 1], pos[at + 2]);
+    }
+    centroid /= static_cast<float>(agents);
+    if (f == frames - 1) far = (centroid - Vec3(0, 0, 1)).norm();
+  }
+  CHECK(notSample == 0);  // every velocity is one of the samples
+  meanSpeed /= static_cast<double>(agents * (frames - 1));
+  CHECK(meanSpeed > 0.2);  // the mosquitoes' speeds: median 0.46 m/s
+  CHECK(meanSpeed < 0.8);
+  CHECK(far < 0.5);  // the swarm stays over its marker (the centre of E_cos)
+}
+
+TEST_CASE("fastswarm: bad parameters are exit 2 with the JSON path", "[fastswarm][input]") {
+  TempDir dir;
+  struct Case {
+    std::string set, message;
+  } cases[] = {
+      {"'swarms[0].params.reference=\"nowhere.h5\"'", "swarms[0].params.reference"},
+      {"'swarms[0].params.reference=\"fastswarm_aggregation_37.json\"'", "not an HDF5 file"},
+      {"'swarms[0].params.d_att1=2'", "expected d_att1 <= d_att2"},
+      {"'swarms[0].params.w_rep=-1'", "swarms[0].params.w_rep"},
+      {"'swarms[0].params.center=\"middle\"'", "\"swarm\" or a point"},
+      {"'swarms[0].params.candidates=0'", "swarms[0].params.candidates"},
+      {"'swarms[0].params.w_user=1'", "w_user"},
+  };
+  for (const auto& c : cases) {
+    const auto r = runSwarmsim("validate " + shellQuote(kScenario) + " --set " + c.set, dir.path());
+    INFO(c.set << "\nstderr: " << r.err);
+    CHECK(r.exitCode == 2);
+    CHECK_THAT(r.err, Contains(c.message));
+  }
+}
