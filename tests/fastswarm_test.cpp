@@ -3,6 +3,7 @@
 // end: every velocity taken is a reference sample, the swarm holds station, 1 and 2 threads give the same
 // bytes, and bad parameters are exit 2.
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <random>
@@ -10,6 +11,8 @@
 #include <string>
 #include <tuple>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "io/trajectory_reader.hpp"
 #include "models/fastswarm/energy.hpp"
@@ -225,7 +228,9 @@ TEST_CASE("fastswarm: bad parameters are exit 2 with the JSON path", "[fastswarm
       {"'swarms[0].params.w_rep=-1'", "swarms[0].params.w_rep"},
       {"'swarms[0].params.center=\"middle\"'", "\"swarm\" or a point"},
       {"'swarms[0].params.candidates=0'", "swarms[0].params.candidates"},
-      {"'swarms[0].params.w_user=1'", "w_user"},
+      {"'swarms[0].params.w_user=1'", "user control needs \"control\""},
+      {"'swarms[0].params.control={\"keypoints\": [[0, 0, 0]]}'", "swarms[0].params.control.keypoints"},
+      {"'swarms[0].params.control={\"keypoints\": [[0, 0, 0], [1, 2]]}'", "keypoints[1]"},
   };
   for (const auto& c : cases) {
     const auto r = runSwarmsim("validate " + shellQuote(kScenario) + " --set " + c.set, dir.path());
@@ -233,4 +238,93 @@ TEST_CASE("fastswarm: bad parameters are exit 2 with the JSON path", "[fastswarm
     CHECK(r.exitCode == 2);
     CHECK_THAT(r.err, Contains(c.message));
   }
+}
+
+TEST_CASE("fastswarm: keypoint tasks visit the keypoints in order, both ways round, and turn at open ends",
+          "[fastswarm]") {
+  swarmsim::KeypointCurve curve;
+  curve.points = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  curve.radius = 0.1;
+  // an agent that is at its goal each step advances one keypoint per step
+  const auto visits = [&](std::uint32_t id, const Vec3& start, int steps) {
+    swarmsim::KeypointTask t = swarmsim::fastswarm::startTask(curve, start, id);
+    std::vector<int> seen = {t.goal};
+    for (int s = 0; s < steps; ++s) {
+      swarmsim::fastswarm::advanceTask(curve, curve.points[static_cast<std::size_t>(t.goal)].cast<float>(), t);
+      seen.push_back(t.goal);
+    }
+    return seen;
+  };
+  CHECK(visits(0, Vec3(0.9f, 0.2f, 0.0f), 5) == std::vector<int>{1, 2, 3, 0, 1, 2});  // nearest first, then on
+  CHECK(visits(1, Vec3(0.9f, 0.2f, 0.0f), 5) == std::vector<int>{1, 0, 3, 2, 1, 0});  // odd ids the other way
+  curve.bidirectional = false;
+  CHECK(visits(1, Vec3(0.9f, 0.2f, 0.0f), 2) == std::vector<int>{1, 2, 3});
+  curve.closed = false;
+  CHECK(visits(0, Vec3(0.9f, 0.2f, 0.0f), 6) == std::vector<int>{1, 2, 3, 2, 1, 0, 1});  // back at the ends
+  // not yet within the radius: the goal stays
+  swarmsim::KeypointTask t = swarmsim::fastswarm::startTask(curve, Vec3(0, 0, 0), 0);
+  swarmsim::fastswarm::advanceTask(curve, Vec3(0.5f, 0.0f, 0.0f), t);
+  CHECK(t.goal == 0);
+  swarmsim::fastswarm::advanceTask(curve, Vec3(0.05f, 0.05f, 0.0f), t);
+  CHECK(t.goal == 1);
+}
+
+TEST_CASE("fastswarm: the heart's insects stay near the curve and fly round it both ways", "[fastswarm][scenario]") {
+  TempDir dir;
+  const std::string scenario = swarmsim_test::kSourceTree + "/scenarios/fastswarm_heart.json";
+  const auto r = runSwarmsim("run " + shellQuote(scenario) + " --set 'swarms[0].count=200' --frames 300 --quiet -o h.h5",
+                             dir.path());
+  INFO(r.err);
+  REQUIRE(r.exitCode == 0);
+  std::vector<std::uint64_t> shape;
+  const auto pos = swarmsim::readFloatDataset(dir.file("h.h5"), "swarms/insects/position", &shape);
+  const auto ids = swarmsim::readFloatDataset(dir.file("h.h5"), "swarms/insects/id");
+  REQUIRE(shape[0] == 300);
+  const std::size_t agents = shape[1];
+  REQUIRE(ids.size() == agents);
+  // the scenario's closed curve (x-z plane, y = 0): distance to its polyline
+  const auto json = nlohmann::json::parse(swarmsim_test::readText(scenario));
+  std::vector<Vec3> kp;
+  for (const auto& q : json["swarms"][0]["params"]["control"]["keypoints"]) kp.emplace_back(q[0], q[1], q[2]);
+  REQUIRE(kp.size() == 11);
+  const auto distance = [&](const Vec3& x) {
+    float best = 1e30f;
+    for (std::size_t k = 0; k < kp.size(); ++k) {
+      const Vec3 a = kp[k], ab = kp[(k + 1) % kp.size()] - a;
+      const float t = std::clamp((x - a).dot(ab) / ab.squaredNorm(), 0.0f, 1.0f);
+      best = std::min(best, (x - (a + t * ab)).norm());
+    }
+    return best;
+  };
+  const auto at = [&](std::size_t f, std::size_t a) {
+    const std::size_t i = 3 * (f * agents + a);
+    return Vec3(pos[i], pos[i + 1], pos[i + 2]);
+  };
+  for (std::size_t f = 250; f < 300; f += 10) {
+    std::size_t near = 0;
+    for (std::size_t a = 0; a < agents; ++a) near += distance(at(f, a)) < 0.5f ? 1 : 0;
+    INFO("frame " << f);
+    CHECK(near >= agents * 85 / 100);  // 85 % within 0.5 m of the curve (measured: about 91 %)
+  }
+  // round the curve's middle (0, 2) m: the keypoints' order turns clockwise in the x-z view, so even ids
+  // (forward) turn by a negative angle and odd ids (backward) by a positive one, over frames 100-300
+  std::size_t evenOk = 0, oddOk = 0, even = 0, odd = 0;
+  for (std::size_t a = 0; a < agents; ++a) {
+    double net = 0.0;
+    for (std::size_t f = 101; f < 300; ++f) {
+      const Vec3 p0 = at(f - 1, a), p1 = at(f, a);
+      double d = std::atan2(p1.z() - 2.0, p1.x()) - std::atan2(p0.z() - 2.0, p0.x());
+      d = std::remainder(d, 2.0 * M_PI);
+      net += d;
+    }
+    if (static_cast<std::uint32_t>(ids[a]) % 2 == 0) {
+      ++even;
+      evenOk += net < -0.3 ? 1 : 0;
+    } else {
+      ++odd;
+      oddOk += net > 0.3 ? 1 : 0;
+    }
+  }
+  CHECK(evenOk >= even * 8 / 10);  // measured: 97 %
+  CHECK(oddOk >= odd * 8 / 10);    // measured: 91 %
 }

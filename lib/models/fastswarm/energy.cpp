@@ -20,7 +20,7 @@ void Candidates::add(const Vec3& v, const Vec3& a) {
 
 namespace {
 
-// the terms that do not depend on the neighbours (eq. 7, 9, 10, 13) into e
+// the terms that do not depend on the neighbours (eq. 7, 9, 10, 13, 14) into e
 inline void ownTerms(const AgentInput& in, const Candidates& c, std::size_t k, const EnergyParams& p, EnergyTerms& e) {
   const Vec3 v(c.vx[k], c.vy[k], c.vz[k]), u(c.ux[k], c.uy[k], c.uz[k]);
   const float rho = p.rho;
@@ -39,9 +39,11 @@ inline void ownTerms(const AgentInput& in, const Candidates& c, std::size_t k, c
   }
   // eq. 13: the noise's direction
   if (p.w.n > 0.0f) e.n = p.w.n * std::exp(rho * (u - in.noise).norm());
+  // eq. 14: the user's control direction
+  if (p.w.user > 0.0f) e.user = p.w.user * std::exp(rho * (u - in.control).norm());
 }
 
-inline float ownTotal(const EnergyTerms& e) { return e.cos + e.dir + e.adir + e.amag + e.n; }
+inline float ownTotal(const EnergyTerms& e) { return e.cos + e.dir + e.adir + e.amag + e.n + e.user; }
 
 }  // namespace
 

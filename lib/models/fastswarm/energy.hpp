@@ -13,6 +13,7 @@ namespace swarmsim::fastswarm {
 
 struct Weights {
   float rep = 1.0f, oa = 1.0f, cos = 0.05f, dir = 1.0f, acc = 1.0f, n = 0.2f;  // Table 1, aggregation
+  float user = 0.0f;
 };
 
 struct EnergyParams {
@@ -40,6 +41,7 @@ struct AgentInput {
   Vec3 vhat = Vec3::Zero();    // v̂_{i,t} (zero when v is)
   Vec3 center = Vec3::Zero();  // v̂_{i,center}: unit vector toward the swarm centre (zero when at it)
   Vec3 noise = Vec3::Zero();   // v̂^n_{i,t}: the curl noise's direction (zero where it vanishes)
+  Vec3 control = Vec3::Zero(); // v̂^cd_{i,t}: the user's control direction (eq. 15; zero: none)
   // repulsion neighbours: predicted positions p'_j = p_j + v_j Δt; attraction neighbours: p_j
   const float* repX = nullptr;
   const float* repY = nullptr;
@@ -53,8 +55,8 @@ struct AgentInput {
 
 // the terms of E for candidate c, each with its weight (E is their sum)
 struct EnergyTerms {
-  float rep = 0, oa = 0, cos = 0, dir = 0, adir = 0, amag = 0, n = 0;
-  float total() const { return rep + oa + cos + dir + adir + amag + n; }
+  float rep = 0, oa = 0, cos = 0, dir = 0, adir = 0, amag = 0, n = 0, user = 0;
+  float total() const { return rep + oa + cos + dir + adir + amag + n + user; }
 };
 
 inline Vec3 unitOrZero(const Vec3& x) {
@@ -62,7 +64,7 @@ inline Vec3 unitOrZero(const Vec3& x) {
   return n > 0.0f ? Vec3(x / n) : Vec3::Zero();
 }
 
-// E(i, v, a) term by term (eq. 4, 6, 7, 9, 10, 13)
+// E(i, v, a) term by term (eq. 4, 6, 7, 9, 10, 13, 14)
 EnergyTerms energyTerms(const AgentInput& in, const Candidates& c, std::size_t k, const EnergyParams& p);
 
 // the candidate of [first, last) with the least E (ties: the lowest index), and its E

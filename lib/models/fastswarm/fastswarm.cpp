@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 
 #include "core/error.hpp"
 #include "core/parallel.hpp"
@@ -28,6 +29,35 @@ void candidateRange(const Reference& ref, double speed, std::int64_t k, std::siz
   lo = std::clamp<std::int64_t>(lo, 0, groups - want);
   first = static_cast<std::size_t>(ref.groupStart[static_cast<std::size_t>(lo)]);
   last = static_cast<std::size_t>(ref.groupStart[static_cast<std::size_t>(lo + want)]);
+}
+
+KeypointTask startTask(const KeypointCurve& curve, const Vec3& p, std::uint32_t id) {
+  KeypointTask t;
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < curve.points.size(); ++k) {
+    const double d = (curve.points[k] - p.cast<double>()).squaredNorm();
+    if (d < best) {
+      best = d;
+      t.goal = static_cast<std::int32_t>(k);
+    }
+  }
+  t.dir = curve.bidirectional && (id % 2 == 1) ? -1 : 1;
+  return t;
+}
+
+void advanceTask(const KeypointCurve& curve, const Vec3& p, KeypointTask& t) {
+  const auto n = static_cast<std::int32_t>(curve.points.size());
+  if (t.goal < 0 || t.goal >= n) return;
+  const double r = curve.radius;
+  if ((curve.points[static_cast<std::size_t>(t.goal)] - p.cast<double>()).squaredNorm() > r * r) return;
+  std::int32_t next = t.goal + t.dir;
+  if (curve.closed) {
+    next = (next % n + n) % n;
+  } else if (next < 0 || next >= n) {  // an open curve: turn back at its ends
+    t.dir = -t.dir;
+    next = t.goal + t.dir;
+  }
+  t.goal = next;
 }
 
 }  // namespace fastswarm
@@ -106,37 +136,58 @@ class Fastswarm final : public Model {
       noise_.evaluateBatch(sx + first, sy + first, sz + first, last - first, nx_.data() + first, ny_.data() + first,
                            nz_.data() + first);
     });
+    // v̂^cd (eq. 15): toward each agent's goal keypoint, the goal advanced first where the agent reached it
+    if (p_.control) {
+      const KeypointCurve& curve = *p_.control;
+      std::uint32_t maxId = 0;
+      for (std::size_t i = 0; i < n; ++i) maxId = std::max(maxId, s.id[i]);
+      if (tasks_.size() <= maxId) tasks_.resize(static_cast<std::size_t>(maxId) + 1);
+      for (auto* a : {&cx_, &cy_, &cz_}) a->resize(n);
+      parallelFor(n, [&](std::size_t k) {
+        const Vec3 p(sx[k], sy[k], sz[k]);
+        KeypointTask& t = tasks_[s.id[order[k]]];
+        if (t.goal < 0) {
+          t = fastswarm::startTask(curve, p, s.id[order[k]]);
+        } else {
+          fastswarm::advanceTask(curve, p, t);
+        }
+        const Vec3 d = fastswarm::unitOrZero(curve.points[static_cast<std::size_t>(t.goal)].cast<float>() - p);
+        cx_[k] = d.x();
+        cy_[k] = d.y();
+        cz_[k] = d.z();
+      });
+    }
     if (scratch_.size() < static_cast<std::size_t>(threadCount())) scratch_.resize(static_cast<std::size_t>(threadCount()));
     next_.resizeStorage(n);
     const float dt = static_cast<float>(world.dt);
     const float rep2 = p_.energy.dRep * p_.energy.dRep, att12 = p_.energy.dAtt1 * p_.energy.dAtt1;
     const fastswarm::Reference& ref = *p_.reference;
-    forEachPointNeighbors(grid_, dAtt2, blocks_, [&](std::uint32_t k, const CellBlock& block, std::size_t hits) {
+    // per agent, dynamically scheduled: an agent's search (microseconds) outweighs its neighbour lookup, and a
+    // dense swarm fills only a few grid cells, which would leave threads idle if the work went cell by cell
+    parallelForDynamic(n, 16, [&](std::size_t k) {
       Scratch& sc = scratch_[static_cast<std::size_t>(threadIndex())];
       for (auto* a : {&sc.rx, &sc.ry, &sc.rz, &sc.ax, &sc.ay, &sc.az}) a->clear();
-      // the zones, in the block's (deterministic) order: repulsion within d_rep (predicted positions),
+      // the zones, in the grid's (deterministic) order: repulsion within d_rep (predicted positions),
       // attraction from d_att,1 to d_att,2 (current positions)
-      for (std::size_t h = 0; h < hits; ++h) {
-        const std::uint32_t b = block.hits[h];
-        const std::uint32_t j = block.index[b];
-        if (j == k) continue;
-        const float d2 = block.d2[b];
+      grid_.forEachNeighbor(sx[k], sy[k], sz[k], dAtt2, [&](std::uint32_t j, float, float, float, float d2) {
+        if (j == k) return;
         if (d2 < rep2) {
-          sc.rx.push_back(block.x[b] + vx_[j] * dt);
-          sc.ry.push_back(block.y[b] + vy_[j] * dt);
-          sc.rz.push_back(block.z[b] + vz_[j] * dt);
+          sc.rx.push_back(sx[j] + vx_[j] * dt);
+          sc.ry.push_back(sy[j] + vy_[j] * dt);
+          sc.rz.push_back(sz[j] + vz_[j] * dt);
         } else if (d2 >= att12) {
-          sc.ax.push_back(block.x[b]);
-          sc.ay.push_back(block.y[b]);
-          sc.az.push_back(block.z[b]);
+          sc.ax.push_back(sx[j]);
+          sc.ay.push_back(sy[j]);
+          sc.az.push_back(sz[j]);
         }
-      }
+      });
       AgentInput in;
       in.p = Vec3(sx[k], sy[k], sz[k]);
       in.v = Vec3(vx_[k], vy_[k], vz_[k]);
       in.vhat = fastswarm::unitOrZero(in.v);
       in.center = fastswarm::unitOrZero(center - in.p);
       in.noise = fastswarm::unitOrZero(Vec3(nx_[k], ny_[k], nz_[k]));
+      if (p_.control) in.control = Vec3(cx_[k], cy_[k], cz_[k]);
       in.repX = sc.rx.data();
       in.repY = sc.ry.data();
       in.repZ = sc.rz.data();
@@ -160,6 +211,19 @@ class Fastswarm final : public Model {
     s.swapStorage(next_);
   }
 
+  // the keypoint tasks are the only state carried from step to step
+  void saveState(StateOut& out) const override {
+    std::vector<std::int32_t> flat;
+    for (const KeypointTask& t : tasks_) flat.insert(flat.end(), {t.goal, t.dir});
+    out.putVector(flat);
+  }
+  void loadState(StateIn& in, const World&) override {
+    const auto flat = in.getVector<std::int32_t>();
+    if (flat.size() % 2 != 0) throw std::runtime_error("fastswarm state: odd task data");
+    tasks_.assign(flat.size() / 2, {});
+    for (std::size_t i = 0; i < tasks_.size(); ++i) tasks_[i] = {flat[2 * i], flat[2 * i + 1]};
+  }
+
   Json facts() const override {
     const fastswarm::Reference& ref = *p_.reference;
     return {{"reference", p_.referencePath},
@@ -175,9 +239,9 @@ class Fastswarm final : public Model {
   Grid3<float> boundary_;
   NoiseField noise_;
   UniformGrid grid_;
-  std::vector<float> vx_, vy_, vz_, nx_, ny_, nz_;  // by sorted position
+  std::vector<float> vx_, vy_, vz_, nx_, ny_, nz_, cx_, cy_, cz_;  // by sorted position
+  std::vector<KeypointTask> tasks_;                                // by agent id
   std::vector<Scratch> scratch_;
-  std::vector<CellBlock> blocks_;
   SwarmState next_;
 };
 
@@ -222,6 +286,28 @@ FastswarmParams readFastswarmParams(JsonReader& r, const ModelContext& context) 
   } else {
     r.resolve("center", "swarm");
   }
+  if (r.has("control")) {
+    JsonReader cr = r.object("control", true);
+    KeypointCurve curve;
+    const Json* pts = cr.raw("keypoints");
+    if (!pts || !pts->is_array() || pts->size() < 2) {
+      cr.failExpected("keypoints", "an array of at least 2 points [x, y, z]", pts ? *pts : Json());
+    }
+    for (std::size_t k = 0; k < pts->size(); ++k) {
+      const Json& q = (*pts)[k];
+      bool ok = q.is_array() && q.size() == 3;
+      for (std::size_t a = 0; ok && a < 3; ++a) ok = q[a].is_number() && std::isfinite(q[a].get<double>()) && std::fabs(q[a].get<double>()) <= 1e9;
+      if (!ok) cr.failExpected("keypoints[" + std::to_string(k) + "]", "a point [x, y, z] of numbers within 1e9", q);
+      curve.points.emplace_back(q[0].get<double>(), q[1].get<double>(), q[2].get<double>());
+    }
+    curve.closed = cr.boolean("closed", curve.closed);
+    curve.bidirectional = cr.boolean("bidirectional", curve.bidirectional);
+    curve.radius = cr.number("radius", curve.radius, Range::length());
+    cr.finish();
+    p.control = curve;
+  }
+  e.w.user = static_cast<float>(r.number("w_user", p.control ? 1.0 : 0.0, weight));
+  if (e.w.user > 0.0f && !p.control) r.fail("w_user", "user control needs \"control\": {\"keypoints\": [...]}");
   {
     JsonReader nz = r.object("noise", false);
     p.noiseScale = nz.number("scale", p.noiseScale, Range::length());

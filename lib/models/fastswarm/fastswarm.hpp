@@ -3,8 +3,8 @@
 // d_v = [v, a] (real insects, reference.hpp) that minimises
 //   E = E_rep + E_oa + E_cos + E_dir + E_acc + E_n                                   (eq. 2-13; energy.hpp)
 // over the samples of its speed group and the neighbouring groups (about `candidates` samples), then
-// p += v Δt. Neighbours come from the step's uniform grid. Not yet: stimuli (E_env), user control (E_user),
-// trajectory synthesis. docs/models/fastswarm.md has the equations as implemented and every parameter.
+// p += v Δt; with user control also E_user toward the agent's goal keypoint (eq. 14-15). Neighbours come
+// from the step's uniform grid. Not yet: stimuli (E_env), weight switches, trajectory synthesis. docs/models/fastswarm.md has the equations as implemented and every parameter.
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -17,6 +17,29 @@
 
 namespace swarmsim {
 
+// user control (section 5.1.2): each agent traverses `points` in order, heading for its goal keypoint and
+// taking the next one once within `radius`. Closed: after the last comes the first; open: the agent turns
+// back at either end. Bidirectional: agents with odd ids go the other way round.
+struct KeypointCurve {
+  std::vector<Vec3d> points;  // at least 2, m
+  bool closed = true;
+  bool bidirectional = true;
+  double radius = 0.3;  // m
+};
+
+// one agent's progress along the curve
+struct KeypointTask {
+  std::int32_t goal = -1;  // index of the goal keypoint (-1: not started)
+  std::int32_t dir = 1;    // +1 or -1
+};
+
+namespace fastswarm {
+// start a task for an agent at p with id `id`: the nearest keypoint (ties: the lower index) is its goal
+KeypointTask startTask(const KeypointCurve& curve, const Vec3& p, std::uint32_t id);
+// the task after one step at p: the next keypoint once p is within the radius of the goal (one per step)
+void advanceTask(const KeypointCurve& curve, const Vec3& p, KeypointTask& task);
+}  // namespace fastswarm
+
 struct FastswarmParams {
   std::string referencePath;  // resolved against the scenario's folder
   std::shared_ptr<const fastswarm::Reference> reference;
@@ -25,6 +48,7 @@ struct FastswarmParams {
   std::int64_t candidates = 300;   // k: samples searched per agent (whole speed groups about its own)
   std::optional<Vec3d> center;     // the swarm centre of E_cos; none: the swarm's centroid each step
   double noiseScale = 0.5;         // lattice cell of the curl noise, m
+  std::optional<KeypointCurve> control;  // user control (E_user, eq. 14-15)
   std::array<std::uint64_t, 3> seeds = {1, 2, 3};
 };
 
