@@ -66,6 +66,20 @@ TEST_CASE("fastswarm: each energy term against a hand-worked value", "[fastswarm
   CHECK(e.amag == Approx(0.7 * (std::sqrt(500.0) - 5.0)).epsilon(1e-5));
   CHECK(e.n == Approx(0.3 * std::exp(2.5 * std::sqrt(2.0))).epsilon(1e-5));
   CHECK(e.total() == Approx(e.rep + e.oa + e.cos + e.dir + e.adir + e.amag + e.n));
+  // stimuli (eq. 11-12): an attractor straight ahead of the candidate's heading, one behind it; a predator
+  // (a ball of radius 0.1 whose centre is 0.45 from p' = (0, 0.2, 0)) with d_danger 0.5
+  p.w.env = 2.0f;
+  p.dDanger = 0.5f;
+  const float lx[] = {0.0f, 0.0f}, ly[] = {1.0f, -1.0f}, lz[] = {0.0f, 0.0f};
+  const float dx[] = {0.0f}, dy[] = {0.2f}, dz[] = {0.45f}, dr[] = {0.1f};
+  AgentInput st = in;
+  st.lureX = lx, st.lureY = ly, st.lureZ = lz, st.lures = 2;
+  st.dangerX = dx, st.dangerY = dy, st.dangerZ = dz, st.dangerR = dr, st.dangers = 1;
+  const EnergyTerms g = energyTerms(st, c, 0, p);
+  CHECK(g.lure == Approx(2.0 * (std::exp(0.0) + std::exp(2.5 * 2.0))).epsilon(1e-5));  // |v̂ − v̂_sti| = 0 and 2
+  CHECK(g.danger == Approx(2.0 * std::exp(2.5 * (1.0 - (0.45 - 0.1) / 0.5))).epsilon(1e-5));
+  CHECK(g.total() == Approx(e.total() + g.lure + g.danger).epsilon(1e-6));
+  p.w.env = 0.0f;
   // no neighbours: no interaction energy; a zero weight: no term
   AgentInput alone = in;
   alone.rep = alone.att = 0;
@@ -143,6 +157,21 @@ TEST_CASE("fastswarm: the argmin is the brute-force minimum of E over the same c
     CHECK(bestBounded == best);
     // and the bound is one: never above a candidate's E
     for (std::size_t k = 40; k < 260; ++k) CHECK(lower[k - 40] <= energyTerms(in, c, k, p).total());
+    // with stimuli too (an attractor, a predator near the agent)
+    EnergyParams ps = p;
+    ps.w.env = 2.0f;
+    ps.dDanger = 0.5f;
+    const float lx[] = {0.6f}, ly[] = {0.8f}, lz[] = {0.0f};
+    const float dx[] = {0.1f * u(rng)}, dy[] = {0.3f}, dz[] = {0.1f * u(rng)}, dr[] = {0.05f};
+    AgentInput is = in;
+    is.lureX = lx, is.lureY = ly, is.lureZ = lz, is.lures = 1;
+    is.dangerX = dx, is.dangerY = dy, is.dangerZ = dz, is.dangerR = dr, is.dangers = 1;
+    BoundFactors fs;
+    fs.build(c, ps);
+    float plain = 0.0f, bounded = 0.0f;
+    CHECK(argminEnergyBounded(is, c, fs, 40, 260, ps, lower, &bounded) == argminEnergy(is, c, 40, 260, ps, &plain));
+    CHECK(bounded == plain);
+    for (std::size_t k = 40; k < 260; ++k) CHECK(lower[k - 40] <= energyTerms(is, c, k, ps).total());
   }
 }
 
@@ -327,4 +356,46 @@ TEST_CASE("fastswarm: the heart's insects stay near the curve and fly round it b
   }
   CHECK(evenOk >= even * 8 / 10);  // measured: 97 %
   CHECK(oddOk >= odd * 8 / 10);    // measured: 91 %
+}
+
+TEST_CASE("fastswarm: mating males close in on the moving female", "[fastswarm][scenario]") {
+  TempDir dir;
+  const std::string scenario = swarmsim_test::kSourceTree + "/scenarios/fastswarm_mating.json";
+  const auto r = runSwarmsim("run " + shellQuote(scenario) + " --set 'swarms[0].count=60' --frames 751 --quiet -o m.h5",
+                             dir.path());
+  INFO(r.err);
+  REQUIRE(r.exitCode == 0);
+  std::vector<std::uint64_t> shape;
+  const auto pos = swarmsim::readFloatDataset(dir.file("m.h5"), "swarms/males/position", &shape);
+  const std::size_t agents = shape[1];
+  // the female: the scenario's keyframes, linear between them (as the model reads them)
+  const auto json = nlohmann::json::parse(swarmsim_test::readText(scenario));
+  const auto& keys = json["swarms"][0]["params"]["stimuli"][0]["keyframes"];
+  const auto female = [&](double t) {
+    for (std::size_t k = 0; k + 1 < keys.size(); ++k) {
+      const double t0 = keys[k]["time"], t1 = keys[k + 1]["time"];
+      if (t > t1) continue;
+      const double f = (t - t0) / (t1 - t0);
+      const auto& a = keys[k]["center"];
+      const auto& b = keys[k + 1]["center"];
+      return Vec3(static_cast<float>(a[0].get<double>() + f * (b[0].get<double>() - a[0].get<double>())),
+                  static_cast<float>(a[1].get<double>() + f * (b[1].get<double>() - a[1].get<double>())),
+                  static_cast<float>(a[2].get<double>() + f * (b[2].get<double>() - a[2].get<double>())));
+    }
+    const auto& z = keys.back()["center"];
+    return Vec3(z[0].get<float>(), z[1].get<float>(), z[2].get<float>());
+  };
+  const auto medianDistance = [&](std::size_t frame) {
+    std::vector<float> d;
+    const Vec3 c = female(0.02 * static_cast<double>(frame));
+    for (std::size_t a = 0; a < agents; ++a) {
+      const std::size_t i = 3 * (frame * agents + a);
+      d.push_back((Vec3(pos[i], pos[i + 1], pos[i + 2]) - c).norm());
+    }
+    std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
+    return d[d.size() / 2];
+  };
+  CHECK(medianDistance(0) > 1.0f);    // the males start round the circle's middle, 1.2 m from her
+  CHECK(medianDistance(500) < 0.7f);  // and after 10 s fly close to her (measured with 100 males: 0.46 m)
+  CHECK(medianDistance(750) < 0.7f);  // and stay with her (0.31 m at 15 s)
 }

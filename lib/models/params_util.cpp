@@ -91,4 +91,18 @@ std::array<int, 3> cellsForEdge(const Aabb& domain, double edge, double maxCells
   }
 }
 
+Vec3d Keyed3::at(double t) const { return interpolateKeys(times, values, t); }
+
+Keyed3 readPath(JsonReader& r, const char* what) {
+  Keyed3 path;
+  readKeyframes(r, path.times, path.values);
+  if (path.times.empty()) {
+    path.times.push_back(0.0);
+    path.values.push_back(r.requireVec3("center", Range::coordinate()));
+  } else if (r.has("center")) {
+    r.fail("center", std::string("give either center or keyframes for ") + what + ", not both");
+  }
+  return path;
+}
+
 }  // namespace swarmsim

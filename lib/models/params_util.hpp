@@ -27,6 +27,15 @@ void readSeeds(JsonReader& r, const std::string& key, std::array<std::uint64_t, 
 // appended to times/centers (absent: nothing)
 void readKeyframes(JsonReader& r, std::vector<double>& times, std::vector<Vec3d>& centers);
 
+// a point over time (a stimulus's centre, a moving goal): piecewise linear between keys, held outside
+struct Keyed3 {
+  std::vector<double> times;
+  std::vector<Vec3d> values;
+  Vec3d at(double t) const;
+};
+// "center": [x, y, z] (static) or "keyframes" (readKeyframes), one of the two; `what` names the object in errors
+Keyed3 readPath(JsonReader& r, const char* what);
+
 // piecewise linear in time between keys, held before the first and after the last
 // (times increasing, values non-empty and of the same size)
 template <typename T>

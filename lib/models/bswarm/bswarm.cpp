@@ -32,18 +32,6 @@ std::string dimsText(const std::array<int, 3>& n) {
   return std::to_string(n[0]) + "x" + std::to_string(n[1]) + "x" + std::to_string(n[2]);
 }
 
-Keyed3 readPath(JsonReader& r, const char* what) {
-  Keyed3 path;
-  readKeyframes(r, path.times, path.values);
-  if (path.times.empty()) {
-    path.times.push_back(0.0);
-    path.values.push_back(r.requireVec3("center", Range::coordinate()));
-  } else if (r.has("center")) {
-    r.fail("center", std::string("give either center or keyframes for ") + what + ", not both");
-  }
-  return path;
-}
-
 StimulusSpec::Kind readKind(JsonReader& r) {
   const std::string type = r.choice("type", "", {"predator", "attractor"});
   if (type.empty()) r.failMissing("type", "\"predator\" (escape) or \"attractor\" (pursuit)");
@@ -402,8 +390,6 @@ Vec3 responseForce(const ResponseInputs& in, const Vec3& x, const Vec3& v, float
   }
   return a;
 }
-
-Vec3d Keyed3::at(double t) const { return interpolateKeys(times, values, t); }
 
 void BswarmSchedule::apply(double t, BswarmDynamic& d) const {
   for (const Track& tr : tracks) {

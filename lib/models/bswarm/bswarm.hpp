@@ -19,15 +19,9 @@
 #include <vector>
 
 #include "models/model.hpp"
+#include "models/params_util.hpp"
 
 namespace swarmsim {
-
-// a value at a time, for keyframed paths and parameters
-struct Keyed3 {
-  std::vector<double> times;
-  std::vector<Vec3d> values;
-  Vec3d at(double t) const;  // piecewise linear, held outside
-};
 
 struct StimulusSpec {
   enum class Kind { kPredator, kAttractor };

@@ -41,9 +41,15 @@ inline void ownTerms(const AgentInput& in, const Candidates& c, std::size_t k, c
   if (p.w.n > 0.0f) e.n = p.w.n * std::exp(rho * (u - in.noise).norm());
   // eq. 14: the user's control direction
   if (p.w.user > 0.0f) e.user = p.w.user * std::exp(rho * (u - in.control).norm());
+  // eq. 11-12, attracted: Ψ = |v̂ − v̂_{i,sti}| per attracting stimulus
+  if (p.w.env > 0.0f) {
+    for (std::size_t j = 0; j < in.lures; ++j) {
+      e.lure += p.w.env * std::exp(rho * (u - Vec3(in.lureX[j], in.lureY[j], in.lureZ[j])).norm());
+    }
+  }
 }
 
-inline float ownTotal(const EnergyTerms& e) { return e.cos + e.dir + e.adir + e.amag + e.n + e.user; }
+inline float ownTotal(const EnergyTerms& e) { return e.cos + e.dir + e.adir + e.amag + e.n + e.user + e.lure; }
 
 }  // namespace
 
@@ -73,6 +79,15 @@ EnergyTerms energyTerms(const AgentInput& in, const Candidates& c, std::size_t k
     }
     e.oa = p.w.oa * s / static_cast<float>(in.att);
   }
+  // eq. 11-12, startled: Ψ = 1 − |p' − p_sti| / d_danger per predator that startles the agent (the distance to
+  // a sphere's surface)
+  if (p.w.env > 0.0f && in.dangers > 0) {
+    const Vec3 q = in.p + v * p.dt;
+    for (std::size_t j = 0; j < in.dangers; ++j) {
+      const float d = (q - Vec3(in.dangerX[j], in.dangerY[j], in.dangerZ[j])).norm() - in.dangerR[j];
+      e.danger += p.w.env * std::exp(rho * (1.0f - d / p.dDanger));
+    }
+  }
   ownTerms(in, c, k, p, e);
   return e;
 }
@@ -95,11 +110,13 @@ std::size_t argminEnergy(const AgentInput& in, const Candidates& c, std::size_t 
 void BoundFactors::build(const Candidates& c, const EnergyParams& p) {
   rep.resize(c.size());
   oa.resize(c.size());
+  danger.resize(c.size());
   for (std::size_t k = 0; k < c.size(); ++k) {
     const float step = std::sqrt(c.vx[k] * c.vx[k] + c.vy[k] * c.vy[k] + c.vz[k] * c.vz[k]) * p.dt;
     // a little below the exact factor: float rounding of the sums must not lift the bound above E
     rep[k] = std::exp(-p.rho * step / p.dRep) * (1.0f - 1e-3f);
     oa[k] = std::exp(-p.rho * step / p.dAtt1) * (1.0f - 1e-3f);
+    danger[k] = std::exp(-p.rho * step / p.dDanger) * (1.0f - 1e-3f);
   }
 }
 
@@ -121,6 +138,13 @@ std::size_t argminEnergyBounded(const AgentInput& in, const Candidates& c, const
     }
     oa0 *= p.w.oa / static_cast<float>(in.att);
   }
+  float danger0 = 0.0f;
+  if (p.w.env > 0.0f && in.dangers > 0) {
+    for (std::size_t j = 0; j < in.dangers; ++j) {
+      const float d = (in.p - Vec3(in.dangerX[j], in.dangerY[j], in.dangerZ[j])).norm() - in.dangerR[j];
+      danger0 += p.w.env * std::exp(p.rho * (1.0f - d / p.dDanger));
+    }
+  }
   // lower bounds: the own terms exactly (the same arithmetic as energyTerms), the interaction bounded below
   lower.resize(last - first);
   std::size_t start = first;
@@ -128,7 +152,7 @@ std::size_t argminEnergyBounded(const AgentInput& in, const Candidates& c, const
   for (std::size_t k = first; k < last; ++k) {
     EnergyTerms e;
     ownTerms(in, c, k, p, e);
-    const float lb = ownTotal(e) + f.rep[k] * rep0 + f.oa[k] * oa0;
+    const float lb = ownTotal(e) + f.rep[k] * rep0 + f.oa[k] * oa0 + f.danger[k] * danger0;
     lower[k - first] = lb;
     if (lb < startBound) {
       startBound = lb;

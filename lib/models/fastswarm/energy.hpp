@@ -14,6 +14,7 @@ namespace swarmsim::fastswarm {
 struct Weights {
   float rep = 1.0f, oa = 1.0f, cos = 0.05f, dir = 1.0f, acc = 1.0f, n = 0.2f;  // Table 1, aggregation
   float user = 0.0f;
+  float env = 0.0f;
 };
 
 struct EnergyParams {
@@ -22,6 +23,7 @@ struct EnergyParams {
   float dRep = 0.1f;    // d_rep, m
   float dAtt1 = 0.3f;   // d_att,1, m
   float dt = 0.02f;     // Δt, s
+  float dDanger = 1.0f; // d_danger, m
 };
 
 // the reference's samples as the minimiser reads them (structure of arrays, float)
@@ -51,12 +53,23 @@ struct AgentInput {
   const float* attY = nullptr;
   const float* attZ = nullptr;
   std::size_t att = 0;
+  // stimuli (eq. 11-12): attractors as unit vectors toward them (v̂_{i,sti}); the predators that startle
+  // the agent (within d_danger) as centres and radii (distance to a sphere's surface)
+  const float* lureX = nullptr;
+  const float* lureY = nullptr;
+  const float* lureZ = nullptr;
+  std::size_t lures = 0;
+  const float* dangerX = nullptr;
+  const float* dangerY = nullptr;
+  const float* dangerZ = nullptr;
+  const float* dangerR = nullptr;
+  std::size_t dangers = 0;
 };
 
 // the terms of E for candidate c, each with its weight (E is their sum)
 struct EnergyTerms {
-  float rep = 0, oa = 0, cos = 0, dir = 0, adir = 0, amag = 0, n = 0, user = 0;
-  float total() const { return rep + oa + cos + dir + adir + amag + n + user; }
+  float rep = 0, oa = 0, cos = 0, dir = 0, adir = 0, amag = 0, n = 0, user = 0, lure = 0, danger = 0;
+  float total() const { return rep + oa + cos + dir + adir + amag + n + user + lure + danger; }
 };
 
 inline Vec3 unitOrZero(const Vec3& x) {
@@ -64,18 +77,19 @@ inline Vec3 unitOrZero(const Vec3& x) {
   return n > 0.0f ? Vec3(x / n) : Vec3::Zero();
 }
 
-// E(i, v, a) term by term (eq. 4, 6, 7, 9, 10, 13, 14)
+// E(i, v, a) term by term (eq. 4, 6, 7, 9, 10, 11-12, 13, 14); E_env is split into its attracted
+// (lure) and startled (danger) parts
 EnergyTerms energyTerms(const AgentInput& in, const Candidates& c, std::size_t k, const EnergyParams& p);
 
 // the candidate of [first, last) with the least E (ties: the lowest index), and its E
 std::size_t argminEnergy(const AgentInput& in, const Candidates& c, std::size_t first, std::size_t last,
                          const EnergyParams& p, float* best = nullptr);
 
-// per candidate, e^{-ρ |v| Δt / d} for d = d_rep and d_att,1 (a little less): moving by |v| Δt changes a
+// per candidate, e^{-ρ |v| Δt / d} for d = d_rep, d_att,1 and d_danger (a little less): moving by |v| Δt changes a
 // neighbour's distance by at most that much, so E_rep and E_oa are at least these factors times their value
 // for no move
 struct BoundFactors {
-  std::vector<float> rep, oa;
+  std::vector<float> rep, oa, danger;
   void build(const Candidates& c, const EnergyParams& p);
 };
 

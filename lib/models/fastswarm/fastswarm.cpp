@@ -79,6 +79,7 @@ class FastswarmConfig final : public ModelConfig {
 // per-thread scratch: one agent's neighbours
 struct Scratch {
   std::vector<float> rx, ry, rz, ax, ay, az;
+  std::vector<float> lx, ly, lz, dx, dy, dz, dr;  // stimuli: lures' directions, dangers' centres and radii
   std::vector<float> lower;  // the candidates' lower bounds
 };
 
@@ -94,6 +95,17 @@ class Fastswarm final : public Model {
     }
     p_.energy.dt = static_cast<float>(world.dt);
     bounds_.build(cand_, p_.energy);
+    // a startled agent's weights (its bounds are the same: they depend on dt and the radii only)
+    danger_ = p_.energy;
+    const auto set = [](float& w, const std::optional<float>& v) {
+      if (v) w = *v;
+    };
+    set(danger_.w.rep, p_.dangerRep);
+    set(danger_.w.oa, p_.dangerOa);
+    set(danger_.w.cos, p_.dangerCos);
+    set(danger_.w.dir, p_.dangerDir);
+    set(danger_.w.acc, p_.dangerAcc);
+    set(danger_.w.n, p_.dangerN);
     // f_N: the direction of curl noise (eq. 13), blended along obstacles and walls as everywhere in swarmsim
     const Obstacles& obs = *world.obstacles;
     const GridSpec spec =
@@ -157,6 +169,9 @@ class Fastswarm final : public Model {
         cz_[k] = d.z();
       });
     }
+    // the stimuli's centres now
+    stimulusAt_.clear();
+    for (const FastswarmStimulus& st : p_.stimuli) stimulusAt_.push_back(st.path.at(info.time).cast<float>());
     if (scratch_.size() < static_cast<std::size_t>(threadCount())) scratch_.resize(static_cast<std::size_t>(threadCount()));
     next_.resizeStorage(n);
     const float dt = static_cast<float>(world.dt);
@@ -188,6 +203,26 @@ class Fastswarm final : public Model {
       in.center = fastswarm::unitOrZero(center - in.p);
       in.noise = fastswarm::unitOrZero(Vec3(nx_[k], ny_[k], nz_[k]));
       if (p_.control) in.control = Vec3(cx_[k], cy_[k], cz_[k]);
+      // eq. 11-12: every attractor; the predators within d_danger startle the agent
+      for (auto* a : {&sc.lx, &sc.ly, &sc.lz, &sc.dx, &sc.dy, &sc.dz, &sc.dr}) a->clear();
+      for (std::size_t j = 0; j < p_.stimuli.size(); ++j) {
+        const Vec3& c = stimulusAt_[j];
+        if (!p_.stimuli[j].predator) {
+          const Vec3 u = fastswarm::unitOrZero(c - in.p);
+          sc.lx.push_back(u.x());
+          sc.ly.push_back(u.y());
+          sc.lz.push_back(u.z());
+        } else if ((c - in.p).norm() - static_cast<float>(p_.stimuli[j].radius) < p_.energy.dDanger) {
+          sc.dx.push_back(c.x());
+          sc.dy.push_back(c.y());
+          sc.dz.push_back(c.z());
+          sc.dr.push_back(static_cast<float>(p_.stimuli[j].radius));
+        }
+      }
+      in.lureX = sc.lx.data(), in.lureY = sc.ly.data(), in.lureZ = sc.lz.data(), in.lures = sc.lx.size();
+      in.dangerX = sc.dx.data(), in.dangerY = sc.dy.data(), in.dangerZ = sc.dz.data(), in.dangerR = sc.dr.data();
+      in.dangers = sc.dx.size();
+      const fastswarm::EnergyParams& ep = in.dangers > 0 ? danger_ : p_.energy;
       in.repX = sc.rx.data();
       in.repY = sc.ry.data();
       in.repZ = sc.rz.data();
@@ -198,7 +233,7 @@ class Fastswarm final : public Model {
       in.att = sc.ax.size();
       std::size_t first = 0, last = 0;
       fastswarm::candidateRange(ref, static_cast<double>(in.v.norm()), p_.candidates, first, last);
-      const std::size_t c = fastswarm::argminEnergyBounded(in, cand_, bounds_, first, last, p_.energy, sc.lower);
+      const std::size_t c = fastswarm::argminEnergyBounded(in, cand_, bounds_, first, last, ep, sc.lower);
       const Vec3 v(cand_.vx[c], cand_.vy[c], cand_.vz[c]);
       next_.id[k] = s.id[order[k]];
       next_.vx[k] = v.x();
@@ -236,6 +271,8 @@ class Fastswarm final : public Model {
   FastswarmParams p_;
   Candidates cand_;
   fastswarm::BoundFactors bounds_;
+  fastswarm::EnergyParams danger_;  // the weights of a startled agent
+  std::vector<Vec3> stimulusAt_;    // the stimuli's centres this step
   Grid3<float> boundary_;
   NoiseField noise_;
   UniformGrid grid_;
@@ -305,6 +342,31 @@ FastswarmParams readFastswarmParams(JsonReader& r, const ModelContext& context) 
     curve.radius = cr.number("radius", curve.radius, Range::length());
     cr.finish();
     p.control = curve;
+  }
+  for (JsonReader& st : r.objectArray("stimuli", false, 0)) {
+    FastswarmStimulus x;
+    const std::string type = st.choice("type", "", {"attractor", "predator"});
+    if (type.empty()) st.failMissing("type", "\"attractor\" (attracted, eq. 12) or \"predator\" (startled)");
+    x.predator = type == "predator";
+    x.radius = st.number("radius", 0.0, Range::lengthOrZero());
+    x.path = readPath(st, "a stimulus");
+    st.finish();
+    p.stimuli.push_back(x);
+  }
+  e.w.env = static_cast<float>(r.number("w_env", p.stimuli.empty() ? 0.0 : 1.0, weight));
+  e.dDanger = static_cast<float>(r.number("d_danger", e.dDanger, Range::length()));
+  if (r.has("in_danger")) {
+    JsonReader dr = r.object("in_danger", true);
+    const auto opt = [&](const char* key, std::optional<float>& v) {
+      if (dr.has(key)) v = static_cast<float>(dr.number(key, 0.0, weight));
+    };
+    opt("w_rep", p.dangerRep);
+    opt("w_oa", p.dangerOa);
+    opt("w_cos", p.dangerCos);
+    opt("w_dir", p.dangerDir);
+    opt("w_acc", p.dangerAcc);
+    opt("w_n", p.dangerN);
+    dr.finish();
   }
   e.w.user = static_cast<float>(r.number("w_user", p.control ? 1.0 : 0.0, weight));
   if (e.w.user > 0.0f && !p.control) r.fail("w_user", "user control needs \"control\": {\"keypoints\": [...]}");

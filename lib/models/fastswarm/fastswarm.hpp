@@ -3,8 +3,9 @@
 // d_v = [v, a] (real insects, reference.hpp) that minimises
 //   E = E_rep + E_oa + E_cos + E_dir + E_acc + E_n                                   (eq. 2-13; energy.hpp)
 // over the samples of its speed group and the neighbouring groups (about `candidates` samples), then
-// p += v Δt; with user control also E_user toward the agent's goal keypoint (eq. 14-15). Neighbours come
-// from the step's uniform grid. Not yet: stimuli (E_env), weight switches, trajectory synthesis. docs/models/fastswarm.md has the equations as implemented and every parameter.
+// p += v Δt; with stimuli also E_env (eq. 11-12: attractors, and predators within d_danger, which switch a
+// startled agent to its "in danger" weights), with user control E_user toward the agent's goal keypoint
+// (eq. 14-15). Neighbours come from the step's uniform grid. Not yet: trajectory synthesis. docs/models/fastswarm.md has the equations as implemented and every parameter.
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -14,6 +15,7 @@
 #include "models/fastswarm/energy.hpp"
 #include "models/fastswarm/reference.hpp"
 #include "models/model.hpp"
+#include "models/params_util.hpp"
 
 namespace swarmsim {
 
@@ -40,15 +42,26 @@ KeypointTask startTask(const KeypointCurve& curve, const Vec3& p, std::uint32_t 
 void advanceTask(const KeypointCurve& curve, const Vec3& p, KeypointTask& task);
 }  // namespace fastswarm
 
+// a stimulus (eq. 11-12): an attractor draws the agents' heading toward it; a predator startles the agents
+// within d_danger of it (of its surface, for a sphere)
+struct FastswarmStimulus {
+  bool predator = false;
+  double radius = 0.0;  // 0: a point
+  Keyed3 path;          // centre over time
+};
+
 struct FastswarmParams {
   std::string referencePath;  // resolved against the scenario's folder
   std::shared_ptr<const fastswarm::Reference> reference;
   fastswarm::EnergyParams energy;  // ρ, weights, d_rep, d_att,1 (dt: the scenario's)
-  double dAtt2 = 1.0;              // d_att,2, m: outer radius of the attraction zone
+  double dAtt2 = 0.6;              // d_att,2, m: outer radius of the attraction zone
   std::int64_t candidates = 300;   // k: samples searched per agent (whole speed groups about its own)
   std::optional<Vec3d> center;     // the swarm centre of E_cos; none: the swarm's centroid each step
   double noiseScale = 0.5;         // lattice cell of the curl noise, m
   std::optional<KeypointCurve> control;  // user control (E_user, eq. 14-15)
+  std::vector<FastswarmStimulus> stimuli;
+  // the weights of a startled agent (Table 1's "in danger" row): each set value replaces the weight
+  std::optional<float> dangerRep, dangerOa, dangerCos, dangerDir, dangerAcc, dangerN;
   std::array<std::uint64_t, 3> seeds = {1, 2, 3};
 };
 
