@@ -92,6 +92,15 @@ SwarmState spawnSwarm(const SwarmSpec& spec, std::uint64_t seed, std::uint32_t s
   s.resize(static_cast<std::size_t>(spec.count));
   const SpawnRegion& r = spec.spawn;
   const float speed = static_cast<float>(spec.initialSpeed);
+  if (r.kind == SpawnRegion::Kind::kTracks) {  // the recorded individuals, as they were at that sample
+    for (std::size_t i = 0; i < s.size(); ++i) {
+      const float* p = r.positions->data() + 3 * i;
+      const float* v = r.velocities->data() + 3 * i;
+      s.setPosition(i, Vec3(p[0], p[1], p[2]));
+      s.setVelocity(i, Vec3(v[0], v[1], v[2]));
+    }
+    return s;
+  }
   parallelFor(s.size(), [&](std::size_t i) {
     AgentRng pr(seed, 0, s.id[i], RngPurpose::kSpawnPosition, swarmIndex);
     Vec3d p;

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <random>
 #include <set>
+#include <sstream>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -398,4 +399,57 @@ TEST_CASE("fastswarm: mating males close in on the moving female", "[fastswarm][
   CHECK(medianDistance(0) > 1.0f);    // the males start round the circle's middle, 1.2 m from her
   CHECK(medianDistance(500) < 0.7f);  // and after 10 s fly close to her (measured with 100 males: 0.46 m)
   CHECK(medianDistance(750) < 0.7f);  // and stay with her (0.31 m at 15 s)
+}
+
+TEST_CASE("fastswarm: a tracks spawn continues the recorded insects from where they were", "[fastswarm][scenario]") {
+  TempDir dir;
+  const std::string scenario = swarmsim_test::kSourceTree + "/scenarios/fastswarm_continuation.json";
+  const auto r = runSwarmsim("run " + shellQuote(scenario) + " --frames 20 --quiet -o c.h5", dir.path());
+  INFO(r.err);
+  REQUIRE(r.exitCode == 0);
+  std::vector<std::uint64_t> shape;
+  const auto pos = swarmsim::readFloatDataset(dir.file("c.h5"), "swarms/mosquitoes/position", &shape);
+  const auto vel = swarmsim::readFloatDataset(dir.file("c.h5"), "swarms/mosquitoes/velocity");
+  REQUIRE(shape[1] == 14);
+  // frame 0: the file's rows at 41.266 s, in the order the file first names the individuals (its row order here)
+  std::istringstream in(swarmsim_test::readText(swarmsim_test::kSourceTree + "/data/tracks/anopheles_moustic_41s.csv"));
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::pair<int, std::array<float, 6>>> rows;
+  while (std::getline(in, line)) {
+    std::vector<std::string> cell;
+    std::stringstream ls(line);
+    for (std::string c; std::getline(ls, c, ';');) cell.push_back(c);
+    REQUIRE(cell.size() == 9);
+    if (cell[2] != "41.266") continue;
+    std::array<float, 6> v{};
+    for (int a = 0; a < 6; ++a) v[static_cast<std::size_t>(a)] = std::stof(cell[3 + static_cast<std::size_t>(a)]);
+    rows.emplace_back(std::stoi(cell[0]), v);
+  }
+  REQUIRE(rows.size() == 14);
+  for (std::size_t a = 0; a < 14; ++a) {
+    for (int c = 0; c < 3; ++c) {
+      CHECK(pos[3 * a + static_cast<std::size_t>(c)] == rows[a].second[static_cast<std::size_t>(c)]);
+      CHECK(vel[3 * a + static_cast<std::size_t>(c)] == rows[a].second[3 + static_cast<std::size_t>(c)]);
+    }
+  }
+  // and then they move on: frame 19 differs
+  CHECK(pos[3 * 14 * 19] != pos[0]);
+  // bad spawns: exit 2 naming the JSON path
+  struct Case {
+    std::string set, message;
+  } cases[] = {
+      {"'swarms[0].count=20'", "the tracks spawn gives 14 individuals at sample 0"},
+      {"'swarms[0].spawn.sample=2'", "swarms[0].spawn.sample"},
+      {"'swarms[0].spawn.file=\"missing.csv\"'", "swarms[0].spawn.file"},
+  };
+  for (const auto& c : cases) {
+    const auto v = runSwarmsim("validate " + shellQuote(scenario) + " --set " + c.set, dir.path());
+    INFO(c.set << "\nstderr: " << v.err);
+    CHECK(v.exitCode == 2);
+    CHECK_THAT(v.err, Contains(c.message));
+  }
+  const auto b = runSwarmsim("bench " + shellQuote(scenario) + " --agents 100 --frames 1 --repeat 1", dir.path());
+  CHECK(b.exitCode == 2);
+  CHECK_THAT(b.err, Contains("--agents cannot rescale it"));
 }

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "core/error.hpp"
+#include "eval/tracks.hpp"
 #include "geometry/mesh.hpp"
 #include "geometry/obstacles.hpp"
 #include "models/params_util.hpp"
@@ -37,10 +38,60 @@ void checkBallInLimits(const JsonReader& r, const Vec3d& center, double radius) 
   }
 }
 
-SpawnRegion readSpawn(JsonReader r) {
+// the individuals present at sample `s.sample` of s.file, with their velocities (recorded, else forward
+// differences to the next sample, else zero)
+void readTrackSpawn(JsonReader& r, SpawnRegion& s) {
+  eval::SourceOptions opt;
+  std::unique_ptr<eval::TrackSource> src;
+  try {
+    src = eval::openTracks(s.file, opt);
+  } catch (const InputError& e) {
+    r.fail("file", e.what());
+  }
+  const eval::TrackInfo& info = src->info();
+  const std::int64_t k = info.first + s.sample;
+  if (k >= info.last) {
+    r.fail("sample", "expected a sample of the file's " + std::to_string(info.last - info.first) + " (0 to " +
+                         std::to_string(info.last - info.first - 1) + ")");
+  }
+  eval::Frame f, next;
+  src->read(k, f);
+  if (f.size() == 0) r.fail("sample", "no individual is present at sample " + std::to_string(s.sample) + " of " + s.file);
+  const bool differences = !info.hasVelocity && k + 1 < info.last;
+  if (differences) src->read(k + 1, next);
+  auto pos = std::make_shared<std::vector<float>>(), vel = std::make_shared<std::vector<float>>();
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    std::ptrdiff_t j = differences ? next.find(f.id[i]) : -1;
+    for (int a = 0; a < 3; ++a) {
+      const double p = f.pos[3 * i + static_cast<std::size_t>(a)];
+      if (!(std::fabs(p) <= kMaxCoordinate)) r.fail("file", s.file + ": a position beyond the coordinate limit");
+      pos->push_back(static_cast<float>(p));
+      double v = 0.0;
+      if (info.hasVelocity) {
+        v = f.vel[3 * i + static_cast<std::size_t>(a)];
+      } else if (j >= 0) {
+        v = (next.pos[3 * static_cast<std::size_t>(j) + static_cast<std::size_t>(a)] - p) / info.dt;
+      }
+      vel->push_back(static_cast<float>(v));
+    }
+  }
+  s.positions = pos;
+  s.velocities = vel;
+}
+
+SpawnRegion readSpawn(JsonReader r, const std::string& scenarioFile) {
   SpawnRegion s;
-  const std::string type = r.choice("type", "box", {"box", "sphere"});
-  if (type == "box") {
+  const std::string type = r.choice("type", "box", {"box", "sphere", "tracks"});
+  if (type == "tracks") {
+    s.kind = SpawnRegion::Kind::kTracks;
+    namespace fs = std::filesystem;
+    const std::string rel = r.requireString("file");
+    s.file = (fs::path(rel).is_relative() ? fs::path(scenarioFile).parent_path() / rel : fs::path(rel))
+                 .lexically_normal()
+                 .string();
+    s.sample = r.integer("sample", 0, 0, std::int64_t{1} << 40);
+    readTrackSpawn(r, s);
+  } else if (type == "box") {
     s.kind = SpawnRegion::Kind::kBox;
     s.min = r.requireVec3("min", Range::coordinate());
     s.max = r.requireVec3("max", Range::coordinate());
@@ -192,6 +243,10 @@ void rescaleAgents(Json& scenario, std::int64_t agents, const std::string& file)
     assigned += count;
     sw["count"] = count;
     const SpawnRegion& sp = before.swarms[i].spawn;
+    if (sp.kind == SpawnRegion::Kind::kTracks) {
+      throw InputError(file + ": swarms[" + std::to_string(i) + "].spawn: a tracks spawn has the file's individuals; " +
+                       "--agents cannot rescale it");
+    }
     if (sp.kind == SpawnRegion::Kind::kBox) {
       const Vec3d c = 0.5 * (sp.min + sp.max), h = 0.5 * (sp.max - sp.min) * linear;
       const Vec3d lo = c - h, hi = c + h;
@@ -251,10 +306,20 @@ Scenario parseScenario(const Json& json, const std::string& file) {
       s.failExpected("name", "a non-empty name without '/' or '.'", spec.name);
     }
     if (!names.insert(spec.name).second) s.failExpected("name", "a name no other swarm has", spec.name);
-    spec.count = s.requireInteger("count", 1, kMaxAgents);
+    spec.spawn = readSpawn(s.object("spawn", true), file);
+    if (spec.spawn.kind == SpawnRegion::Kind::kTracks) {
+      // as many agents as the tracks give
+      const auto n = static_cast<std::int64_t>(spec.spawn.positions->size() / 3);
+      spec.count = s.integer("count", n, 1, kMaxAgents);
+      if (spec.count != n) {
+        s.fail("count", "the tracks spawn gives " + std::to_string(n) + " individuals at sample " +
+                            std::to_string(spec.spawn.sample) + "; leave count out or set it to " + std::to_string(n));
+      }
+    } else {
+      spec.count = s.requireInteger("count", 1, kMaxAgents);
+    }
     total += spec.count;
     if (total > kMaxAgents) s.fail("count", "the scenario has more than " + std::to_string(kMaxAgents) + " agents");
-    spec.spawn = readSpawn(s.object("spawn", true));
     spec.initialSpeed = s.number("initial_speed", 0.0, Range::speed());
     spec.model = s.requireString("model");
     const ModelEntry* entry = findModel(spec.model);

@@ -13,11 +13,16 @@
 namespace swarmsim {
 
 struct SpawnRegion {
-  enum class Kind { kBox, kSphere };
+  enum class Kind { kBox, kSphere, kTracks };
   Kind kind = Kind::kBox;
   Vec3d min = Vec3d::Zero(), max = Vec3d::Zero();  // box, metres
   Vec3d center = Vec3d::Zero();                    // sphere, metres
   double radius = 0.0;                             // sphere, metres
+  // tracks: the individuals present at one sample of a track file (eval/tracks.hpp), in the order the file
+  // first names them: 3 per agent, m and m/s
+  std::string file;
+  std::int64_t sample = 0;
+  std::shared_ptr<const std::vector<float>> positions, velocities;
 };
 
 struct SwarmSpec {
