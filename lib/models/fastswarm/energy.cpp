@@ -2,6 +2,8 @@
 
 #include <limits>
 
+#include "core/lanes.hpp"
+
 namespace swarmsim::fastswarm {
 
 void Candidates::add(const Vec3& v, const Vec3& a) {
@@ -50,6 +52,60 @@ inline void ownTerms(const AgentInput& in, const Candidates& c, std::size_t k, c
 }
 
 inline float ownTotal(const EnergyTerms& e) { return e.cos + e.dir + e.adir + e.amag + e.n + e.user + e.lure; }
+
+// ownTotal of the candidates [first, first + 8 m) into out, eight at a time on SIMD lanes with the lanes' e^x
+// (within about 2e-7 of std::exp): for the bounds only, which allow for that difference
+template <typename L>
+inline void ownTotalsLanes(const AgentInput& in, const Candidates& c, std::size_t first, std::size_t blocks,
+                           const EnergyParams& p, float* out) {
+  using V = typename L::V;
+  const V rho = L::set1(p.rho), zero = L::set1(0.0f), one = L::set1(1.0f), sign = L::set1(-0.0f);
+  const V invDt = L::set1(1.0f / p.dt);
+  const auto dist = [&](V x, V y, V z, float ax, float ay, float az) {
+    const V dx = L::sub(x, L::set1(ax)), dy = L::sub(y, L::set1(ay)), dz = L::sub(z, L::set1(az));
+    return L::sqrt(L::add(L::add(L::mul(dx, dx), L::mul(dy, dy)), L::mul(dz, dz)));
+  };
+  const auto term = [&](float w, V d) { return L::mul(L::set1(w), expLanes<L>(L::mul(rho, d))); };
+  for (std::size_t b = 0; b < blocks; ++b) {
+    const std::size_t k = first + b * kLanes;
+    const V ux = L::load(c.ux.data() + k), uy = L::load(c.uy.data() + k), uz = L::load(c.uz.data() + k);
+    V e = zero;
+    if (p.w.cos > 0.0f) e = L::add(e, term(p.w.cos, dist(ux, uy, uz, in.center.x(), in.center.y(), in.center.z())));
+    if (p.w.dir > 0.0f) e = L::add(e, term(p.w.dir, dist(ux, uy, uz, in.vhat.x(), in.vhat.y(), in.vhat.z())));
+    if (p.w.acc > 0.0f) {
+      const V ax = L::mul(L::sub(L::load(c.vx.data() + k), L::set1(in.v.x())), invDt);
+      const V ay = L::mul(L::sub(L::load(c.vy.data() + k), L::set1(in.v.y())), invDt);
+      const V az = L::mul(L::sub(L::load(c.vz.data() + k), L::set1(in.v.z())), invDt);
+      const V m = L::sqrt(L::add(L::add(L::mul(ax, ax), L::mul(ay, ay)), L::mul(az, az)));
+      const V inv = L::band(L::gt(m, zero), L::div(one, L::max(m, L::set1(1e-30f))));
+      const V dx = L::sub(L::mul(ax, inv), L::load(c.bx.data() + k));
+      const V dy = L::sub(L::mul(ay, inv), L::load(c.by.data() + k));
+      const V dz = L::sub(L::mul(az, inv), L::load(c.bz.data() + k));
+      const V d = L::sqrt(L::add(L::add(L::mul(dx, dx), L::mul(dy, dy)), L::mul(dz, dz)));
+      e = L::add(e, term(p.w.acc, d));
+      e = L::add(e, L::mul(L::set1(p.w.acc), L::andnot(sign, L::sub(m, L::load(c.amag.data() + k)))));
+    }
+    if (p.w.n > 0.0f) e = L::add(e, term(p.w.n, dist(ux, uy, uz, in.noise.x(), in.noise.y(), in.noise.z())));
+    if (p.w.user > 0.0f) {
+      e = L::add(e, term(p.w.user, dist(ux, uy, uz, in.control.x(), in.control.y(), in.control.z())));
+    }
+    if (p.w.env > 0.0f) {
+      for (std::size_t j = 0; j < in.lures; ++j) e = L::add(e, term(p.w.env, dist(ux, uy, uz, in.lureX[j], in.lureY[j], in.lureZ[j])));
+    }
+    L::store(out + b * kLanes, e);
+  }
+}
+
+#if SWARMSIM_X86_LANES
+__attribute__((flatten)) void ownTotalsSse(const AgentInput& in, const Candidates& c, std::size_t first,
+                                           std::size_t blocks, const EnergyParams& p, float* out) {
+  ownTotalsLanes<SseLanes>(in, c, first, blocks, p, out);
+}
+SWARMSIM_AVX __attribute__((flatten)) void ownTotalsAvx(const AgentInput& in, const Candidates& c, std::size_t first,
+                                                        std::size_t blocks, const EnergyParams& p, float* out) {
+  ownTotalsLanes<AvxLanes>(in, c, first, blocks, p, out);
+}
+#endif
 
 }  // namespace
 
@@ -145,14 +201,25 @@ std::size_t argminEnergyBounded(const AgentInput& in, const Candidates& c, const
       danger0 += p.w.env * std::exp(p.rho * (1.0f - d / p.dDanger));
     }
   }
-  // lower bounds: the own terms exactly (the same arithmetic as energyTerms), the interaction bounded below
-  lower.resize(last - first);
+  // lower bounds: the own terms (on SIMD lanes, less a margin for their e^x and the order of the sums; the
+  // rest exactly as energyTerms), the interaction bounded below
+  lower.resize(last - first + kLanes);
+  const std::size_t blocks = (last - first) / kLanes;
+#if SWARMSIM_X86_LANES
+  (useAvx() ? ownTotalsAvx : ownTotalsSse)(in, c, first, blocks, p, lower.data());
+#else
+  ownTotalsLanes<ScalarLanes>(in, c, first, blocks, p, lower.data());
+#endif
+  for (std::size_t i = 0; i < blocks * kLanes; ++i) lower[i] *= 1.0f - 1e-5f;
+  for (std::size_t k = first + blocks * kLanes; k < last; ++k) {
+    EnergyTerms e;
+    ownTerms(in, c, k, p, e);
+    lower[k - first] = ownTotal(e);
+  }
   std::size_t start = first;
   float startBound = std::numeric_limits<float>::infinity();
   for (std::size_t k = first; k < last; ++k) {
-    EnergyTerms e;
-    ownTerms(in, c, k, p, e);
-    const float lb = ownTotal(e) + f.rep[k] * rep0 + f.oa[k] * oa0 + f.danger[k] * danger0;
+    const float lb = lower[k - first] + f.rep[k] * rep0 + f.oa[k] * oa0 + f.danger[k] * danger0;
     lower[k - first] = lb;
     if (lb < startBound) {
       startBound = lb;
