@@ -129,7 +129,7 @@ TEST_CASE("fastswarm: the argmin is the brute-force minimum of E over the same c
       for (std::size_t j = 0; j < ax.size(); ++j) att += std::exp(rho * (nrm(q[0] - ax[j], q[1] - ay[j], q[2] - az[j]) / 0.3 - 1));
       const double ap[3] = {(s[0] - in.v.x()) / 0.02, (s[1] - in.v.y()) / 0.02, (s[2] - in.v.z()) / 0.02};
       const double am = nrm(ap[0], ap[1], ap[2]);
-      double e = rep / rx.size() + att / ax.size();
+      double e = rep / static_cast<double>(rx.size()) + att / static_cast<double>(ax.size());
       e += 0.05 * std::exp(rho * nrm(vh[0] - in.center.x(), vh[1] - in.center.y(), vh[2] - in.center.z()));
       e += std::exp(rho * nrm(vh[0] - in.vhat.x(), vh[1] - in.vhat.y(), vh[2] - in.vhat.z()));
       e += std::exp(rho * nrm(ap[0] / am - ah[0], ap[1] / am - ah[1], ap[2] / am - ah[2])) + std::fabs(am - sa);
