@@ -218,7 +218,7 @@ inline bool useAvx() {
 // of e^g: relative error about 2e-7 at most. Written in lane operations only, so every lane type gives
 // the same bits.
 template <typename L>
-inline typename L::V expLanes(typename L::V x) {
+__attribute__((always_inline)) inline typename L::V expLanes(typename L::V x) {
   using V = typename L::V;
   x = L::min(L::max(x, L::set1(-87.0f)), L::set1(88.0f));
   const V n = L::round(L::mul(x, L::set1(1.44269504f)));

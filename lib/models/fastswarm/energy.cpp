@@ -61,11 +61,15 @@ inline void ownTotalsLanes(const AgentInput& in, const Candidates& c, std::size_
   using V = typename L::V;
   const V rho = L::set1(p.rho), zero = L::set1(0.0f), one = L::set1(1.0f), sign = L::set1(-0.0f);
   const V invDt = L::set1(1.0f / p.dt);
-  const auto dist = [&](V x, V y, V z, float ax, float ay, float az) {
+  // (lambdas that take or return vectors are always inlined: a call would pass them with the caller's
+  // instruction set's ABI, and clang's sanitized build does not inline them under flatten alone)
+  const auto dist = [&](V x, V y, V z, float ax, float ay, float az) __attribute__((always_inline)) {
     const V dx = L::sub(x, L::set1(ax)), dy = L::sub(y, L::set1(ay)), dz = L::sub(z, L::set1(az));
     return L::sqrt(L::add(L::add(L::mul(dx, dx), L::mul(dy, dy)), L::mul(dz, dz)));
   };
-  const auto term = [&](float w, V d) { return L::mul(L::set1(w), expLanes<L>(L::mul(rho, d))); };
+  const auto term = [&](float w, V d) __attribute__((always_inline)) {
+    return L::mul(L::set1(w), expLanes<L>(L::mul(rho, d)));
+  };
   for (std::size_t b = 0; b < blocks; ++b) {
     const std::size_t k = first + b * kLanes;
     const V ux = L::load(c.ux.data() + k), uy = L::load(c.uy.data() + k), uz = L::load(c.uz.data() + k);
