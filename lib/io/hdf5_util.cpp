@@ -88,4 +88,16 @@ std::uint64_t readUIntAttr(hid_t obj, const char* name) {
   return readScalarAttr<std::uint64_t>(obj, name, H5T_NATIVE_UINT64);
 }
 
+std::string fileFormat(const std::string& path) {
+  quietErrors();
+  if (H5Fis_hdf5(path.c_str()) <= 0) return "";
+  H5Handle f(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  if (!f.valid() || !hasAttr(f, "format")) return "";
+  try {
+    return readStringAttr(f, "format");
+  } catch (const std::exception&) {
+    return "";
+  }
+}
+
 }  // namespace swarmsim::h5

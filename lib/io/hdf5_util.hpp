@@ -18,6 +18,9 @@ void writeAttr(hid_t obj, const char* name, double value);
 void updateAttr(hid_t obj, const char* name, std::int64_t value);
 
 bool hasAttr(hid_t obj, const char* name);
+// the root `format` attribute of the HDF5 file at `path` ("swarmsim-trajectory", "swarmsim-reference"),
+// or "" when the file cannot be opened as HDF5 or has none; never throws
+std::string fileFormat(const std::string& path);
 std::string readStringAttr(hid_t obj, const char* name);
 double readDoubleAttr(hid_t obj, const char* name);
 std::int64_t readIntAttr(hid_t obj, const char* name);

@@ -12,7 +12,6 @@
 #include <system_error>
 
 #include "core/error.hpp"
-#include "io/hdf5_handle.hpp"
 #include "io/hdf5_util.hpp"
 #include "io/trajectory_reader.hpp"
 
@@ -61,16 +60,8 @@ bool isOwnOutputFile(const std::string& path) {
     return true;
   } catch (const std::exception&) {
   }
-  // or another file swarmsim writes: an HDF5 file whose format attribute is one of ours
-  h5::quietErrors();
-  if (H5Fis_hdf5(path.c_str()) <= 0) return false;
-  H5Handle f(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
-  if (!f.valid() || !h5::hasAttr(f, "format")) return false;
-  try {
-    return h5::readStringAttr(f, "format") == "swarmsim-reference";  // fastswarm/reference.hpp
-  } catch (const std::exception&) {
-    return false;
-  }
+  // or another file swarmsim writes: a reference (fastswarm/reference.hpp)
+  return h5::fileFormat(path) == "swarmsim-reference";
 }
 
 OutputTarget::OutputTarget(const std::string& path, bool force, bool resume) : requested_(path) {

@@ -1,11 +1,12 @@
 #pragma once
 // FASTSWARM (Xiang, Yao, Wang, Jin): each step every agent takes the velocity v of the reference sample
 // d_v = [v, a] (real insects, reference.hpp) that minimises
-//   E = E_rep + E_oa + E_cos + E_dir + E_acc + E_n                                   (eq. 2-13; energy.hpp)
+//   E = E_rep + E_oa + E_cos + E_dir + E_acc + E_env + E_n + E_user                  (eq. 2-15; energy.hpp)
 // over the samples of its speed group and the neighbouring groups (about `candidates` samples), then
 // p += v Δt; with stimuli also E_env (eq. 11-12: attractors, and predators within d_danger, which switch a
 // startled agent to its "in danger" weights), with user control E_user toward the agent's goal keypoint
-// (eq. 14-15). Neighbours come from the step's uniform grid. Not yet: trajectory synthesis. docs/models/fastswarm.md has the equations as implemented and every parameter.
+// (eq. 14-15). Neighbours come from the step's uniform grid. Not yet: replayed swarms (the second half of
+// trajectory synthesis). docs/models/fastswarm.md has the equations as implemented and every parameter.
 #include <array>
 #include <cstdint>
 #include <memory>

@@ -371,17 +371,7 @@ void writeReference(const Reference& ref, const std::string& path, bool force) {
   target.place(force);
 }
 
-bool isReferenceFile(const std::string& path) {
-  h5::quietErrors();
-  if (H5Fis_hdf5(path.c_str()) <= 0) return false;
-  H5Handle f(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
-  if (!f.valid() || !h5::hasAttr(f, "format")) return false;
-  try {
-    return h5::readStringAttr(f, "format") == Reference::kFormatName;
-  } catch (const std::exception&) {
-    return false;
-  }
-}
+bool isReferenceFile(const std::string& path) { return h5::fileFormat(path) == Reference::kFormatName; }
 
 Reference readReference(const std::string& path) {
   h5::quietErrors();
