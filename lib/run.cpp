@@ -118,16 +118,41 @@ SwarmState spawnSwarm(const SwarmSpec& spec, std::uint64_t seed, std::uint32_t s
 
 Simulation::Simulation(const Scenario& scenario) : world_(scenario.world()) {
   const auto t0 = Clock::now();
-  for (std::size_t i = 0; i < scenario.swarms.size(); ++i) {
-    swarms_.push_back(spawnSwarm(scenario.swarms[i], scenario.seed, static_cast<std::uint32_t>(i)));
-    models_.push_back(scenario.swarms[i].config->build(world_));
+  const std::size_t n = scenario.swarms.size();
+  seen_.resize(n);
+  snapshots_.resize(n);
+  watched_.assign(n, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const SwarmSpec& spec = scenario.swarms[i];
+    swarms_.push_back(spawnSwarm(spec, scenario.seed, static_cast<std::uint32_t>(i)));
+    models_.push_back(spec.config->build(world_));
+    if (spec.spawn.kind == SpawnRegion::Kind::kModel) models_.back()->place(world_, swarms_.back(), 0.0);
+    for (std::uint32_t j : spec.sees) {
+      watched_[j] = 1;
+      seen_[i].swarms.push_back(&snapshots_[j]);
+    }
   }
+  for (std::size_t j = 0; j < n; ++j) snapshots_[j].name = swarms_[j].name;
   preprocessSeconds_ = secondsSince(t0);
 }
 
 void Simulation::step() {
+  // the swarms that others see, as they are before anyone moves (docs/architecture.md): every model of this
+  // step sees the same state, whatever the order the swarms are stepped in
+  for (std::size_t j = 0; j < swarms_.size(); ++j) {
+    if (!watched_[j]) continue;
+    const SwarmState& s = swarms_[j];
+    SwarmState& c = snapshots_[j];
+    c.px.assign(s.px.begin(), s.px.end());
+    c.py.assign(s.py.begin(), s.py.end());
+    c.pz.assign(s.pz.begin(), s.pz.end());
+    c.vx.assign(s.vx.begin(), s.vx.end());
+    c.vy.assign(s.vy.begin(), s.vy.end());
+    c.vz.assign(s.vz.begin(), s.vz.end());
+    c.id.assign(s.id.begin(), s.id.end());
+  }
   for (std::size_t i = 0; i < swarms_.size(); ++i) {
-    models_[i]->step(world_, swarms_[i], StepInfo{step_, static_cast<std::uint32_t>(i), time()});
+    models_[i]->step(world_, swarms_[i], StepInfo{step_, static_cast<std::uint32_t>(i), time(), &seen_[i]});
   }
   ++step_;
   threadTick();  // fewer threads while other processes hold CPUs

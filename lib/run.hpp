@@ -43,6 +43,9 @@ class Simulation {
   World world_;
   std::vector<SwarmState> swarms_;
   std::vector<std::unique_ptr<Model>> models_;
+  std::vector<SwarmState> snapshots_;  // of the swarms some model sees, taken at the start of each step
+  std::vector<char> watched_;          // per swarm: seen by some model
+  std::vector<SeenSwarms> seen_;       // per swarm: its "sees" list, pointing into snapshots_
   std::uint64_t step_ = 0;
   double preprocessSeconds_ = 0.0;
 };

@@ -173,6 +173,26 @@ class Hdf5Source : public TrackSource {
     } else {
       out.vel.clear();
     }
+    // an agent whose position is not finite is absent from this frame (a replayed track not yet started)
+    bool absent = false;
+    for (std::size_t i = 0; i < agents_ * 3 && !absent; ++i) absent = !std::isfinite(out.pos[i]);
+    if (absent) {
+      std::size_t w = 0;
+      for (std::size_t i = 0; i < agents_; ++i) {
+        const double* p = &out.pos[3 * i];
+        if (!(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]))) continue;
+        out.id[w] = out.id[i];
+        for (int c = 0; c < 3; ++c) {
+          out.pos[3 * w + c] = p[c];
+          if (info_.hasVelocity) out.vel[3 * w + c] = out.vel[3 * i + c];
+        }
+        ++w;
+      }
+      out.id.resize(w);
+      out.pos.resize(3 * w);
+      if (info_.hasVelocity) out.vel.resize(3 * w);
+      out.dense = false;
+    }
     if (k + 1 == info_.last) {  // end of a pass: free the block until the next pass
       std::vector<float>().swap(posBuf_);
       std::vector<float>().swap(velBuf_);

@@ -247,6 +247,10 @@ void rescaleAgents(Json& scenario, std::int64_t agents, const std::string& file)
       throw InputError(file + ": swarms[" + std::to_string(i) + "].spawn: a tracks spawn has the file's individuals; " +
                        "--agents cannot rescale it");
     }
+    if (sp.kind == SpawnRegion::Kind::kModel) {
+      throw InputError(file + ": swarms[" + std::to_string(i) + "]: model \"" + before.swarms[i].model +
+                       "\" places its agents itself; --agents cannot rescale it");
+    }
     if (sp.kind == SpawnRegion::Kind::kBox) {
       const Vec3d c = 0.5 * (sp.min + sp.max), h = 0.5 * (sp.max - sp.min) * linear;
       const Vec3d lo = c - h, hi = c + h;
@@ -298,6 +302,7 @@ Scenario parseScenario(const Json& json, const std::string& file) {
   std::set<std::string> names;
   std::vector<JsonReader> swarms = r.objectArray("swarms", true, 1);
   std::int64_t total = 0;
+  std::vector<std::vector<std::string>> seesNames;  // per swarm, resolved once every swarm is known
   for (std::size_t i = 0; i < swarms.size(); ++i) {
     JsonReader& s = swarms[i];
     SwarmSpec spec;
@@ -306,8 +311,23 @@ Scenario parseScenario(const Json& json, const std::string& file) {
       s.failExpected("name", "a non-empty name without '/' or '.'", spec.name);
     }
     if (!names.insert(spec.name).second) s.failExpected("name", "a name no other swarm has", spec.name);
-    spec.spawn = readSpawn(s.object("spawn", true), file);
-    if (spec.spawn.kind == SpawnRegion::Kind::kTracks) {
+    spec.model = s.requireString("model");
+    const ModelEntry* entry = findModel(spec.model);
+    if (!entry) {
+      std::string known;
+      for (const auto& e : modelRegistry()) known += (known.empty() ? "\"" : ", \"") + std::string(e.name) + "\"";
+      s.failExpected("model", "one of " + known, spec.model);
+    }
+    const bool spawned = !entry->placesAgents || s.has("spawn");
+    if (spawned) {
+      if (entry->placesAgents) {
+        s.fail("spawn", "model \"" + spec.model + "\" places its agents itself; remove \"spawn\"");
+      }
+      spec.spawn = readSpawn(s.object("spawn", true), file);
+    }
+    if (!spawned) {
+      spec.spawn.kind = SpawnRegion::Kind::kModel;  // counted after the model's parameters
+    } else if (spec.spawn.kind == SpawnRegion::Kind::kTracks) {
       // as many agents as the tracks give
       const auto n = static_cast<std::int64_t>(spec.spawn.positions->size() / 3);
       spec.count = s.integer("count", n, 1, kMaxAgents);
@@ -318,22 +338,55 @@ Scenario parseScenario(const Json& json, const std::string& file) {
     } else {
       spec.count = s.requireInteger("count", 1, kMaxAgents);
     }
-    total += spec.count;
-    if (total > kMaxAgents) s.fail("count", "the scenario has more than " + std::to_string(kMaxAgents) + " agents");
     spec.initialSpeed = s.number("initial_speed", 0.0, Range::speed());
-    spec.model = s.requireString("model");
-    const ModelEntry* entry = findModel(spec.model);
-    if (!entry) {
-      std::string known;
-      for (const auto& e : modelRegistry()) known += (known.empty() ? "\"" : ", \"") + std::string(e.name) + "\"";
-      s.failExpected("model", "one of " + known, spec.model);
-    }
     JsonReader params = s.object("params", false);
     const double seconds = sc.dt * static_cast<double>(sc.stepsPerFrame) * static_cast<double>(sc.frames - 1);
     spec.config = entry->parse(params, ModelContext{world, file, spec.count, seconds, sc.warnings});
     params.finish();
+    if (!spawned) {
+      const std::int64_t placed = spec.config->placedAgents();
+      spec.count = s.integer("count", placed, 1, kMaxAgents);
+      if (spec.count != placed) {
+        s.fail("count", "model \"" + spec.model + "\" places " + std::to_string(placed) +
+                            " agents; leave count out or set it to " + std::to_string(placed));
+      }
+    }
+    if (const Json* see = s.raw("sees")) {
+      bool ok = see->is_array();
+      for (std::size_t k = 0; ok && k < see->size(); ++k) ok = (*see)[k].is_string();
+      if (!ok) s.failExpected("sees", "an array of swarm names", *see);
+      if (!see->empty() && !entry->looksAtOthers) {
+        std::string which;
+        for (const auto& e : modelRegistry()) {
+          if (e.looksAtOthers) which += (which.empty() ? "" : ", ") + std::string(e.name);
+        }
+        s.fail("sees", "model \"" + spec.model + "\" does not look at other swarms (models that do: " + which + ")");
+      }
+      seesNames.emplace_back();
+      for (const Json& x : *see) seesNames.back().push_back(x.get<std::string>());
+    } else {
+      seesNames.emplace_back();
+    }
+    total += spec.count;
+    if (total > kMaxAgents) s.fail("count", "the scenario has more than " + std::to_string(kMaxAgents) + " agents");
     s.finish();
     sc.swarms.push_back(std::move(spec));
+  }
+  // "sees": names of other swarms of this scenario, each at most once
+  for (std::size_t i = 0; i < sc.swarms.size(); ++i) {
+    std::set<std::string> listed;
+    for (std::size_t k = 0; k < seesNames[i].size(); ++k) {
+      const std::string& want = seesNames[i][k];
+      const std::string at = "sees[" + std::to_string(k) + "]";
+      std::size_t j = 0;
+      while (j < sc.swarms.size() && sc.swarms[j].name != want) ++j;
+      std::string all;
+      for (const auto& o : sc.swarms) all += (all.empty() ? "" : ", ") + o.name;
+      if (j == sc.swarms.size()) swarms[i].failExpected(at, "the name of a swarm of this scenario (" + all + ")", want);
+      if (j == i) swarms[i].failExpected(at, "another swarm's name (a model always sees its own swarm)", want);
+      if (!listed.insert(want).second) swarms[i].failExpected(at, "a swarm not listed before", want);
+      sc.swarms[i].sees.push_back(static_cast<std::uint32_t>(j));
+    }
   }
   {
     JsonReader o = r.object("output", false);

@@ -13,7 +13,7 @@
 namespace swarmsim {
 
 struct SpawnRegion {
-  enum class Kind { kBox, kSphere, kTracks };
+  enum class Kind { kBox, kSphere, kTracks, kModel };  // kModel: no spawn, the model places its agents
   Kind kind = Kind::kBox;
   Vec3d min = Vec3d::Zero(), max = Vec3d::Zero();  // box, metres
   Vec3d center = Vec3d::Zero();                    // sphere, metres
@@ -32,6 +32,7 @@ struct SwarmSpec {
   double initialSpeed = 0.0;  // m/s, random directions
   std::string model;
   std::shared_ptr<const ModelConfig> config;  // parsed model parameters
+  std::vector<std::uint32_t> sees;            // indices of the swarms its model looks at ("sees"), in list order
 };
 
 struct OutputSpec {

@@ -3,8 +3,9 @@
 //   1. its ModelConfig is parsed from the swarm's `params` JSON (cheap, checks
 //      every value; used by `swarmsim validate`);
 //   2. ModelConfig::build() makes the Model, doing any precomputation.
-// Model::step() reads the world and the swarm's current state and writes only
-// that swarm's state. It must be two-phase (every new velocity from the old
+// Model::step() reads the world, the swarm's current state and (if it looks at
+// other swarms) their snapshots in StepInfo::seen, and writes only that
+// swarm's state. It must be two-phase (every new velocity from the old
 // state, then apply) and use counter-based random numbers, so results do not
 // depend on the number of threads.
 #include <memory>
@@ -45,19 +46,25 @@ class Model {
   // the counter-based random numbers needs no saving. Default: nothing to save.
   virtual void saveState(StateOut& out) const { (void)out; }
   virtual void loadState(StateIn& in, const World& world) { (void)in, (void)world; }
+
+  // A model that places its agents itself (ModelEntry::placesAgents, e.g. `replay`) sets their state
+  // at simulated time `time` here; called once after the model is built, before frame 0. Others: unused.
+  virtual void place(const World& world, SwarmState& state, double time) { (void)world, (void)state, (void)time; }
 };
 
 class ModelConfig {
  public:
   virtual ~ModelConfig() = default;
   virtual std::unique_ptr<Model> build(const World& world) const = 0;
+  // a model whose registry entry says placesAgents: how many agents it places (Model::place)
+  virtual std::int64_t placedAgents() const { return 0; }
 };
 
 // what a model's parser may know about the scenario (for defaults)
 struct ModelContext {
   const World& world;
   const std::string& scenarioFile;     // relative file names in `params` resolve against its folder
-  std::int64_t count;                  // agents of the swarm
+  std::int64_t count;                  // agents of the swarm (0 for a model that places its agents)
   double seconds;                      // simulated time of the last frame (frames - 1 of them after frame 0)
   std::vector<std::string>& warnings;  // non-fatal findings, reported by run and validate
 };
@@ -67,6 +74,11 @@ struct ModelEntry {
   const char* name;
   const char* summary;
   std::shared_ptr<const ModelConfig> (*parse)(JsonReader& params, const ModelContext& context);
+  // the model looks at the swarms named in its swarm's "sees" list (StepInfo::seen); "sees" on any other
+  // model is refused
+  bool looksAtOthers = false;
+  // the model places its agents itself (ModelConfig::placedAgents, Model::place): its swarm has no "spawn"
+  bool placesAgents = false;
 };
 
 // every registered model, in registry order

@@ -4,6 +4,7 @@
 #include "models/fastswarm/fastswarm.hpp"
 #include "models/field/field.hpp"
 #include "models/model.hpp"
+#include "models/replay/replay.hpp"
 #include "models/shape/shape.hpp"
 
 namespace swarmsim {
@@ -14,7 +15,8 @@ const std::vector<ModelEntry>& modelRegistry() {
       {"field", "curl noise + fast-marching cost field with MDE, wang2014", &parseField},
       {"bswarm", "zonal forces + friction + stimuli + curl noise, ORCA collision avoidance, wang2015", &parseBswarm},
       {"shape", "insects forming keyframed target meshes along a B-spline path, chen2019", &parseShape},
-      {"fastswarm", "velocities picked from real (v, a) samples by energy minimisation, Xiang et al.", &parseFastswarm},
+      {"fastswarm", "velocities picked from real (v, a) samples by energy minimisation, Xiang et al.", &parseFastswarm, true},
+      {"replay", "agents that follow recorded tracks (CSV or HDF5), for mixing real and simulated insects", &parseReplay, false, true},
   };
   return entries;
 }

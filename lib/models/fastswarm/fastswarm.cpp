@@ -12,6 +12,7 @@
 #include "geometry/obstacles.hpp"
 #include "geometry/signed_distance.hpp"
 #include "models/params_util.hpp"
+#include "spatial/seen_agents.hpp"
 #include "spatial/uniform_grid.hpp"
 
 namespace swarmsim {
@@ -122,10 +123,10 @@ class Fastswarm final : public Model {
   }
 
   void step(const World& world, SwarmState& s, const StepInfo& info) override {
-    (void)info;
     const std::size_t n = s.size();
     const float dAtt2 = static_cast<float>(p_.dAtt2);
     grid_.build(s.px.data(), s.py.data(), s.pz.data(), n, dAtt2);
+    seen_.build(info.seen, dAtt2);  // the other swarms' agents count as neighbours in E_rep and E_oa
     const auto& order = grid_.order();
     const float* sx = grid_.sortedX().data();
     const float* sy = grid_.sortedY().data();
@@ -194,6 +195,17 @@ class Fastswarm final : public Model {
           sc.ax.push_back(sx[j]);
           sc.ay.push_back(sy[j]);
           sc.az.push_back(sz[j]);
+        }
+      });
+      seen_.forEachNear(sx[k], sy[k], sz[k], dAtt2, [&](float px, float py, float pz, float ux, float uy, float uz, float d2) {
+        if (d2 < rep2) {
+          sc.rx.push_back(px + ux * dt);
+          sc.ry.push_back(py + uy * dt);
+          sc.rz.push_back(pz + uz * dt);
+        } else if (d2 >= att12) {
+          sc.ax.push_back(px);
+          sc.ay.push_back(py);
+          sc.az.push_back(pz);
         }
       });
       AgentInput in;
@@ -276,6 +288,7 @@ class Fastswarm final : public Model {
   Grid3<float> boundary_;
   NoiseField noise_;
   UniformGrid grid_;
+  SeenAgents seen_;  // the agents of the swarms this one sees, this step
   std::vector<float> vx_, vy_, vz_, nx_, ny_, nz_, cx_, cy_, cz_;  // by sorted position
   std::vector<KeypointTask> tasks_;                                // by agent id
   std::vector<Scratch> scratch_;

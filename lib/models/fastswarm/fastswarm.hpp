@@ -5,8 +5,9 @@
 // over the samples of its speed group and the neighbouring groups (about `candidates` samples), then
 // p += v Δt; with stimuli also E_env (eq. 11-12: attractors, and predators within d_danger, which switch a
 // startled agent to its "in danger" weights), with user control E_user toward the agent's goal keypoint
-// (eq. 14-15). Neighbours come from the step's uniform grid. Not yet: replayed swarms (the second half of
-// trajectory synthesis). docs/models/fastswarm.md has the equations as implemented and every parameter.
+// (eq. 14-15). Neighbours come from the step's uniform grid, together with the agents of the swarms named in
+// the swarm's "sees" list (a `replay` swarm of real insects, say: section 5.2.3's mixing), which count in
+// E_rep and E_oa like its own. docs/models/fastswarm.md has the equations as implemented and every parameter.
 #include <array>
 #include <cstdint>
 #include <memory>
