@@ -101,6 +101,7 @@ SwarmState spawnSwarm(const SwarmSpec& spec, std::uint64_t seed, std::uint32_t s
     }
     return s;
   }
+  if (r.kind == SpawnRegion::Kind::kModel) return s;  // the model places them (Model::place)
   parallelFor(s.size(), [&](std::size_t i) {
     AgentRng pr(seed, 0, s.id[i], RngPurpose::kSpawnPosition, swarmIndex);
     Vec3d p;

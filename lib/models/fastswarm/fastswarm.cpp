@@ -1,6 +1,7 @@
 #include "models/fastswarm/fastswarm.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -170,6 +171,11 @@ class Fastswarm final : public Model {
         cz_[k] = d.z();
       });
     }
+    if (p_.successors) {  // each agent's current sample, by id (-1: none yet)
+      std::uint32_t maxId = 0;
+      for (std::size_t i = 0; i < n; ++i) maxId = std::max(maxId, s.id[i]);
+      if (current_.size() <= maxId) current_.resize(static_cast<std::size_t>(maxId) + 1, -1);
+    }
     // the stimuli's centres now
     stimulusAt_.clear();
     for (const FastswarmStimulus& st : p_.stimuli) stimulusAt_.push_back(st.path.at(info.time).cast<float>());
@@ -245,9 +251,22 @@ class Fastswarm final : public Model {
       in.att = sc.ax.size();
       std::size_t first = 0, last = 0;
       fastswarm::candidateRange(ref, static_cast<double>(in.v.norm()), p_.candidates, first, last);
-      const std::size_t c = fastswarm::argminEnergyBounded(in, cand_, bounds_, first, last, ep, sc.lower);
+      float bestE = 0.0f;
+      std::size_t c = fastswarm::argminEnergyBounded(in, cand_, bounds_, first, last, ep, sc.lower, &bestE);
+      const std::uint32_t id = s.id[order[k]];
+      if (p_.successors) {
+        // the sample that followed the agent's current one in its real track, when outside the window
+        const std::int64_t cur = current_[id];
+        const std::int64_t nxt = cur >= 0 ? ref.next[static_cast<std::size_t>(cur)] : -1;
+        if (nxt >= 0 && (static_cast<std::size_t>(nxt) < first || static_cast<std::size_t>(nxt) >= last) &&
+            fastswarm::energyTerms(in, cand_, static_cast<std::size_t>(nxt), ep).total() < bestE) {
+          c = static_cast<std::size_t>(nxt);
+        }
+        if (nxt >= 0 && static_cast<std::int64_t>(c) == nxt) followed_.fetch_add(1, std::memory_order_relaxed);
+        current_[id] = static_cast<std::int64_t>(c);
+      }
       const Vec3 v(cand_.vx[c], cand_.vy[c], cand_.vz[c]);
-      next_.id[k] = s.id[order[k]];
+      next_.id[k] = id;
       next_.vx[k] = v.x();
       next_.vy[k] = v.y();
       next_.vz[k] = v.z();
@@ -256,19 +275,43 @@ class Fastswarm final : public Model {
       next_.pz[k] = in.p.z() + v.z() * dt;
     });
     s.swapStorage(next_);
+    stepsAgents_ += n;
   }
 
-  // the keypoint tasks are the only state carried from step to step
+  // with successors: the fraction of agent steps that went on to the successor sample (an integer count, so
+  // the same for any thread count)
+  std::vector<std::string> statNames() const override {
+    return p_.successors ? std::vector<std::string>{"successor_fraction"} : std::vector<std::string>{};
+  }
+  void takeFrameStats(std::vector<double>& values) override {
+    values.clear();
+    if (!p_.successors) return;
+    const std::uint64_t f = followed_.exchange(0);
+    values.push_back(stepsAgents_ > 0 ? static_cast<double>(f) / static_cast<double>(stepsAgents_) : 0.0);
+    stepsAgents_ = 0;
+  }
+
+  // the keypoint tasks and (with successors) each agent's current sample are the state carried from step to step
   void saveState(StateOut& out) const override {
     std::vector<std::int32_t> flat;
     for (const KeypointTask& t : tasks_) flat.insert(flat.end(), {t.goal, t.dir});
     out.putVector(flat);
+    out.putVector(current_);
+    out.putVector(std::vector<std::uint64_t>{followed_.load(), stepsAgents_});
   }
   void loadState(StateIn& in, const World&) override {
     const auto flat = in.getVector<std::int32_t>();
     if (flat.size() % 2 != 0) throw std::runtime_error("fastswarm state: odd task data");
     tasks_.assign(flat.size() / 2, {});
     for (std::size_t i = 0; i < tasks_.size(); ++i) tasks_[i] = {flat[2 * i], flat[2 * i + 1]};
+    current_ = in.getVector<std::int64_t>();
+    const auto counts = in.getVector<std::uint64_t>();
+    if (counts.size() != 2) throw std::runtime_error("fastswarm state: bad statistics");
+    followed_ = counts[0];
+    stepsAgents_ = counts[1];
+    for (const std::int64_t c : current_) {
+      if (c < -1 || c >= static_cast<std::int64_t>(cand_.size())) throw std::runtime_error("fastswarm state: a sample outside the reference");
+    }
   }
 
   Json facts() const override {
@@ -291,6 +334,9 @@ class Fastswarm final : public Model {
   SeenAgents seen_;  // the agents of the swarms this one sees, this step
   std::vector<float> vx_, vy_, vz_, nx_, ny_, nz_, cx_, cy_, cz_;  // by sorted position
   std::vector<KeypointTask> tasks_;                                // by agent id
+  std::atomic<std::uint64_t> followed_{0};  // agent steps since the last frame that took their successor
+  std::uint64_t stepsAgents_ = 0;           // agent steps since the last frame
+  std::vector<std::int64_t> current_;  // by agent id: the sample it flies (successors only; -1: none yet)
   std::vector<Scratch> scratch_;
   SwarmState next_;
 };
@@ -327,6 +373,10 @@ FastswarmParams readFastswarmParams(JsonReader& r, const ModelContext& context) 
   p.dAtt2 = r.number("d_att2", p.dAtt2, Range::length());
   if (!(e.dAtt1 <= p.dAtt2)) r.fail("d_att2", "expected d_att1 <= d_att2");
   p.candidates = r.integer("candidates", p.candidates, 1, 100000000);
+  p.successors = r.boolean("successors", p.successors);
+  if (p.successors && p.reference->next.empty()) {
+    r.fail("successors", p.referencePath + " has no successor table (format version 1): rebuild it with swarmsim reference build");
+  }
   const Json* c = r.raw("center");
   if (c && c->is_string()) {
     if (c->get<std::string>() != "swarm") r.failExpected("center", "\"swarm\" or a point [x, y, z]", *c);

@@ -58,6 +58,9 @@ struct FastswarmParams {
   fastswarm::EnergyParams energy;  // ρ, weights, d_rep, d_att,1 (dt: the scenario's)
   double dAtt2 = 0.6;              // d_att,2, m: outer radius of the attraction zone
   std::int64_t candidates = 300;   // k: samples searched per agent (whole speed groups about its own)
+  // also search the sample that followed the agent's current one in its real track (Reference::next): not in
+  // the paper; lets an agent go on flying a real insect's motion while nothing pulls it away
+  bool successors = false;
   std::optional<Vec3d> center;     // the swarm centre of E_cos; none: the swarm's centroid each step
   double noiseScale = 0.5;         // lattice cell of the curl noise, m
   std::optional<KeypointCurve> control;  // user control (E_user, eq. 14-15)

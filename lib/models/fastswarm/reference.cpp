@@ -3,6 +3,7 @@
 #include <openssl/evp.h>
 
 #include <algorithm>
+#include <unordered_map>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -191,6 +192,7 @@ Reference buildReference(const ReferenceBuildOptions& options) {
   Reference ref;
   std::vector<double> v, a;  // all differenced samples, in source order
   std::vector<std::size_t> sourceOf;
+  std::vector<std::int64_t> rawNext;  // per sample: the raw index of the same individual's next sample, or -1
   for (const std::string& path : options.tracks) {
     ReferenceSource src;
     src.path = path;
@@ -222,6 +224,7 @@ Reference buildReference(const ReferenceBuildOptions& options) {
     std::vector<std::int64_t> withSample;  // individuals that gave at least one sample
     const double inv = 1.0 / info.dt, inv2 = inv * inv;
     const std::size_t before = v.size() / 3;
+    std::unordered_map<std::int64_t, std::pair<std::int64_t, std::size_t>> last;  // id -> (k, raw index) of its latest sample
     for (std::int64_t k = info.first; k < info.last; ++k) {
       std::swap(f[0], f[1]);
       std::swap(f[1], f[2]);
@@ -250,6 +253,13 @@ Reference buildReference(const ReferenceBuildOptions& options) {
         }
         sourceOf.push_back(ref.sources.size());
         withSample.push_back(id);
+        const std::size_t raw = v.size() / 3 - 1;
+        rawNext.push_back(-1);
+        auto [it, fresh] = last.try_emplace(id, k, raw);
+        if (!fresh) {
+          if (it->second.first == k - 1) rawNext[it->second.second] = static_cast<std::int64_t>(raw);
+          it->second = {k, raw};
+        }
       }
     }
     std::sort(withSample.begin(), withSample.end());
@@ -291,7 +301,10 @@ Reference buildReference(const ReferenceBuildOptions& options) {
                      " m/s, acceleration limit " + std::to_string(ref.accelLimit) + " m/s^2)");
   }
   std::stable_sort(kept.begin(), kept.end(), [&](std::size_t x, std::size_t y) { return speed[x] < speed[y]; });
+  std::vector<std::int64_t> sortedOf(n, -1);  // raw index -> sorted index (-1: dropped)
+  for (std::size_t j = 0; j < kept.size(); ++j) sortedOf[kept[j]] = static_cast<std::int64_t>(j);
   for (const std::size_t i : kept) {
+    ref.next.push_back(rawNext[i] < 0 ? -1 : sortedOf[static_cast<std::size_t>(rawNext[i])]);
     ref.speed.push_back(speed[i]);
     for (int c = 0; c < 3; ++c) {
       ref.v.push_back(v[3 * i + static_cast<std::size_t>(c)]);
@@ -336,6 +349,7 @@ void writeReference(const Reference& ref, const std::string& path, bool force) {
       writeDataset(g, "v", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 2, d3, ref.v.data(), true);
       writeDataset(g, "a", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 2, d3, ref.a.data(), true);
       writeDataset(g, "speed", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 1, d1, ref.speed.data(), true);
+      writeDataset(g, "next", H5T_STD_I64LE, H5T_NATIVE_INT64, 1, d1, ref.next.data(), true);
     }
     {
       const H5Handle g = createGroup(f, "groups");
@@ -385,10 +399,11 @@ Reference readReference(const std::string& path) {
                        std::string(Reference::kFormatName) + "\"; build one with swarmsim reference build)");
     }
     const std::int64_t version = h5::readIntAttr(f, "format_version");
-    if (version != Reference::kFormatVersion) {
+    if (version != Reference::kFormatVersion && version != 1) {
       throw InputError(path + ": reference format version " + std::to_string(version) + ", this build reads " +
                        std::to_string(Reference::kFormatVersion));
     }
+    ref.formatVersion = version;
     ref.swarmsimVersion = h5::readStringAttr(f, "swarmsim_version");
     ref.dt = h5::readDoubleAttr(f, "dt");
     ref.groupSize = h5::readIntAttr(f, "group_size");
@@ -412,6 +427,12 @@ Reference readReference(const std::string& path) {
   ref.v = readDataset<double>(samples, "v", H5T_NATIVE_DOUBLE, 3, path, n);
   ref.a = readDataset<double>(samples, "a", H5T_NATIVE_DOUBLE, 3, path, n);
   ref.speed = readDataset<double>(samples, "speed", H5T_NATIVE_DOUBLE, 1, path, n);
+  if (H5Lexists(samples, "next", H5P_DEFAULT) > 0) {
+    ref.next = readDataset<std::int64_t>(samples, "next", H5T_NATIVE_INT64, 1, path, n);
+    for (const std::int64_t j : ref.next) {
+      if (j < -1 || j >= static_cast<std::int64_t>(n)) throw InputError(path + ": /samples/next: an index outside the samples");
+    }
+  }
   ref.groupStart = readDataset<std::int64_t>(groups, "start", H5T_NATIVE_INT64, 1, path, rowsOf(groups, "start", path));
   // the groups must tile the samples in order: the model indexes with them
   bool tiles = n > 0 && ref.groupStart.size() >= 2 && ref.groupStart.front() == 0 &&
@@ -450,11 +471,13 @@ void printReferenceInfo(const Reference& ref, const std::string& path, bool json
     amax = std::max(amax, m);
   }
   const double smin = ref.speed.front(), smax = ref.speed.back(), smed = ref.speed[ref.size() / 2];
+  const auto successors = std::count_if(ref.next.begin(), ref.next.end(), [](std::int64_t j) { return j >= 0; });
   const auto limit = [](double x) -> nlohmann::json { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(); };
   if (json) {
     nlohmann::json j = {{"file", path},
                         {"format", Reference::kFormatName},
-                        {"format_version", Reference::kFormatVersion},
+                        {"format_version", ref.formatVersion},
+                        {"successors", successors},
                         {"swarmsim_version", ref.swarmsimVersion},
                         {"dt", ref.dt},
                         {"samples", ref.size()},
@@ -490,9 +513,12 @@ void printReferenceInfo(const Reference& ref, const std::string& path, bool json
                 "file:      %s\nformat:    %s %lld (swarmsim %s)\ndt:        %g s\n"
                 "samples:   %zu (v, a), in %zu speed groups of %lld\n"
                 "speed:     %.4g .. %.4g m/s (median %.4g)\n|a|:       %.4g .. %.4g m/s^2\n",
-                path.c_str(), Reference::kFormatName, static_cast<long long>(Reference::kFormatVersion),
+                path.c_str(), Reference::kFormatName, static_cast<long long>(ref.formatVersion),
                 ref.swarmsimVersion.c_str(), ref.dt, ref.size(), ref.groups(), static_cast<long long>(ref.groupSize),
                 smin, smax, smed, amin, amax);
+  out << line;
+  std::snprintf(line, sizeof line, "successors: %lld of the samples have the next sample of their track\n",
+                static_cast<long long>(successors));
   out << line;
   std::snprintf(line, sizeof line, "filter:    Tukey fence %g x IQR, max speed %g, max |a| %g (0: none): |v| <= %.4g m/s, |a| <= %.4g m/s^2\n",
                 ref.fence, ref.maxSpeed, ref.maxAccel, ref.speedLimit, ref.accelLimit);

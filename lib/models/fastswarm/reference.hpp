@@ -38,11 +38,15 @@ struct ReferenceSource {
 
 struct Reference {
   static constexpr const char* kFormatName = "swarmsim-reference";
-  static constexpr std::int64_t kFormatVersion = 1;
+  static constexpr std::int64_t kFormatVersion = 2;  // 2: /samples/next (version 1 files are read without it)
 
+  std::int64_t formatVersion = kFormatVersion;  // of the file it was read from
   double dt = 0.0;                 // s, the sources' common time step
   std::vector<double> v, a;        // 3 per sample (m/s, m/s^2), samples ascending in |v|
   std::vector<double> speed;       // |v| per sample
+  // per sample, the sample that followed it in its track (the same individual one time step later, if that
+  // gave a sample and the filter kept it), else -1: the real motion, step by step (fastswarm's `successors`)
+  std::vector<std::int64_t> next;
   std::int64_t groupSize = 0;      // samples per speed group (the last may hold more)
   std::vector<std::int64_t> groupStart;  // group g is samples [groupStart[g], groupStart[g + 1])
   // the filter as applied
