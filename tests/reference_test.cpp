@@ -125,6 +125,21 @@ TEST_CASE("reference: forward differences of positions are exact and never cross
   CHECK(r.sources[0].shortTracks == 1);  // id 3
   CHECK(r.sources[0].samples == 8);
   CHECK(r.sources[0].velocity == "positions");
+  // successors (/samples/next): id 1's k = 0 -> 1 -> 2 and 6 -> 7, id 2's 2 -> 3 -> 4; the last of each run
+  // has none (k = 3 of id 1 gave no sample, and nothing follows k = 7 or id 2's k = 4). The successor's v is
+  // v + a dt of its predecessor, exactly as the differences were taken
+  REQUIRE(r.next.size() == r.size());
+  int linked = 0;
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    if (r.next[i] < 0) continue;
+    ++linked;
+    const auto j = static_cast<std::size_t>(r.next[i]);
+    REQUIRE(j < r.size());
+    for (int c = 0; c < 3; ++c) {
+      CHECK(r.v[3 * j + c] == Approx(r.v[3 * i + c] + r.a[3 * i + c] * Synthetic::dt).margin(1e-9));
+    }
+  }
+  CHECK(linked == 5);
 }
 
 TEST_CASE("reference: recorded velocities give v as recorded and a forward-differenced from them",
@@ -195,6 +210,8 @@ TEST_CASE("reference: a written file reads back the same, and info describes it"
   CHECK(back.a == r.a);
   CHECK(back.speed == r.speed);
   CHECK(back.groupStart == r.groupStart);
+  CHECK(back.next == r.next);
+  CHECK(back.formatVersion == 2);
   CHECK(back.dt == r.dt);
   // the group of a speed: the last group starting at or below it
   REQUIRE(r.groups() == 2);

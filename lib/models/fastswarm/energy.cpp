@@ -142,7 +142,7 @@ EnergyTerms energyTerms(const AgentInput& in, const Candidates& c, std::size_t k
   // eq. 11-12, startled: Ψ = 1 − |p' − p_sti| / d_danger per predator that startles the agent (the distance to
   // a sphere's surface)
   if (p.w.env > 0.0f && in.dangers > 0) {
-    const Vec3 q = in.p + v * p.dt;
+    const Vec3 q = in.p + v * p.dangerAhead();
     for (std::size_t j = 0; j < in.dangers; ++j) {
       const float d = (q - Vec3(in.dangerX[j], in.dangerY[j], in.dangerZ[j])).norm() - in.dangerR[j];
       e.danger += p.w.env * std::exp(rho * (1.0f - d / p.dDanger));
@@ -176,7 +176,7 @@ void BoundFactors::build(const Candidates& c, const EnergyParams& p) {
     // a little below the exact factor: float rounding of the sums must not lift the bound above E
     rep[k] = std::exp(-p.rho * step / p.dRep) * (1.0f - 1e-3f);
     oa[k] = std::exp(-p.rho * step / p.dAtt1) * (1.0f - 1e-3f);
-    danger[k] = std::exp(-p.rho * step / p.dDanger) * (1.0f - 1e-3f);
+    danger[k] = std::exp(-p.rho * step / p.dt * p.dangerAhead() / p.dDanger) * (1.0f - 1e-3f);
   }
 }
 

@@ -24,6 +24,9 @@ struct EnergyParams {
   float dAtt1 = 0.3f;   // d_att,1, m
   float dt = 0.02f;     // Δt, s
   float dDanger = 1.0f; // d_danger, m
+  // how far ahead the startled term predicts the agent's position: p' = p + v T (0: T = Δt, the paper's eq. 12)
+  float dangerHorizon = 0.0f;  // T, s
+  float dangerAhead() const { return dangerHorizon > 0.0f ? dangerHorizon : dt; }
 };
 
 // the reference's samples as the minimiser reads them (structure of arrays, float)

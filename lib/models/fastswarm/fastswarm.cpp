@@ -418,6 +418,8 @@ FastswarmParams readFastswarmParams(JsonReader& r, const ModelContext& context) 
   }
   e.w.env = static_cast<float>(r.number("w_env", p.stimuli.empty() ? 0.0 : 1.0, weight));
   e.dDanger = static_cast<float>(r.number("d_danger", e.dDanger, Range::length()));
+  // 0: Δt (the paper); docs/models/fastswarm.md#escaping says why a scenario may look further ahead
+  e.dangerHorizon = static_cast<float>(r.number("danger_horizon", 0.0, Range::nonNegative().limited(0.0, 1e3)));
   if (r.has("in_danger")) {
     JsonReader dr = r.object("in_danger", true);
     const auto opt = [&](const char* key, std::optional<float>& v) {
