@@ -518,7 +518,8 @@ TEST_CASE("fastswarm: startled insects keep d_danger from the passing ball, and 
   // measured 95.6 %: the ball (0.3 m/s) is slower than the insects (0.46 m/s), so they can keep clear of it
   CHECK(static_cast<double>(escaping.clear) >= 0.9 * static_cast<double>(escaping.near));
   CHECK(escaping.spreadEnd < escaping.spreadStart + 0.15f);  // gathered round the marker again (0.40 vs 0.38 m)
-  // without E_env nobody flees: the ball runs through the swarm
+  // without E_env (w_env 0: the insects near the ball still take their in-danger weights, but nothing
+  // steers them away) the ball runs through the swarm
   const Tally blind = measure(" --set 'swarms[0].params.w_env=0'", "b.h5");
   CHECK(blind.inside > 0);
   CHECK(static_cast<double>(blind.clear) < 0.7 * static_cast<double>(blind.near));

@@ -287,6 +287,8 @@ TEST_CASE("reference: the shipped mosquito reference is what its README's comman
   CHECK(rebuilt.a == shipped.a);
   CHECK(rebuilt.speed == shipped.speed);
   CHECK(rebuilt.groupStart == shipped.groupStart);
+  CHECK(rebuilt.next == shipped.next);
+  CHECK(shipped.formatVersion == 2);
   CHECK(rebuilt.dt == shipped.dt);
   CHECK(rebuilt.speedLimit == shipped.speedLimit);
   CHECK(rebuilt.accelLimit == shipped.accelLimit);

@@ -111,34 +111,86 @@ SWARMSIM_AVX __attribute__((flatten)) void ownTotalsAvx(const AgentInput& in, co
 }
 #endif
 
+
+// Σ_j e^{a + b |q − p_j|} over n points, eight at a time on SIMD lanes with the lanes' e^x, the lanes added in a
+// fixed order at the end: every lane type gives the same bits (the eq. 4, 6 and 12 sums)
+template <typename L>
+inline float zoneSumLanes(float qx, float qy, float qz, const float* x, const float* y, const float* z,
+                          std::size_t n, float a, float b) {
+  using V = typename L::V;
+  alignas(32) static constexpr float kIndex[kLanes] = {0, 1, 2, 3, 4, 5, 6, 7};
+  const V vqx = L::set1(qx), vqy = L::set1(qy), vqz = L::set1(qz), va = L::set1(a), vb = L::set1(b);
+  const auto lane = [&](V px, V py, V pz) __attribute__((always_inline)) {
+    const V dx = L::sub(vqx, px), dy = L::sub(vqy, py), dz = L::sub(vqz, pz);
+    const V d = L::sqrt(L::add(L::add(L::mul(dx, dx), L::mul(dy, dy)), L::mul(dz, dz)));
+    return expLanes<L>(L::add(va, L::mul(vb, d)));
+  };
+  V acc = L::set1(0.0f);
+  std::size_t j = 0;
+  for (; j + kLanes <= n; j += kLanes) acc = L::add(acc, lane(L::load(x + j), L::load(y + j), L::load(z + j)));
+  if (j < n) {  // the tail through a padded copy (the caller's arrays end at n), masked off past n
+    float tx[kLanes] = {}, ty[kLanes] = {}, tz[kLanes] = {};
+    for (std::size_t i = 0; j + i < n; ++i) tx[i] = x[j + i], ty[i] = y[j + i], tz[i] = z[j + i];
+    const V keep = L::lt(L::load(kIndex), L::set1(static_cast<float>(n - j)));
+    acc = L::add(acc, L::band(keep, lane(L::load(tx), L::load(ty), L::load(tz))));
+  }
+  float part[kLanes];
+  L::store(part, acc);
+  float sum = 0.0f;
+  for (const float v : part) sum += v;
+  return sum;
+}
+
+#if SWARMSIM_X86_LANES
+__attribute__((flatten)) float zoneSumSse(float qx, float qy, float qz, const float* x, const float* y, const float* z,
+                                          std::size_t n, float a, float b) {
+  return zoneSumLanes<SseLanes>(qx, qy, qz, x, y, z, n, a, b);
+}
+SWARMSIM_AVX __attribute__((flatten)) float zoneSumAvx(float qx, float qy, float qz, const float* x, const float* y,
+                                                       const float* z, std::size_t n, float a, float b) {
+  return zoneSumLanes<AvxLanes>(qx, qy, qz, x, y, z, n, a, b);
+}
+#endif
+
+inline float zoneSum(bool avx, const Vec3& q, const float* x, const float* y, const float* z, std::size_t n, float a,
+                     float b) {
+#if SWARMSIM_X86_LANES
+  return (avx ? zoneSumAvx : zoneSumSse)(q.x(), q.y(), q.z(), x, y, z, n, a, b);
+#else
+  (void)avx;
+  return zoneSumLanes<ScalarLanes>(q.x(), q.y(), q.z(), x, y, z, n, a, b);
+#endif
+}
+
+// the interaction terms of eq. 4 and 6 at the agent's position q
+inline void zoneTerms(bool avx, const AgentInput& in, const Vec3& q, const EnergyParams& p, float& rep, float& oa) {
+  rep = oa = 0.0f;
+  if (p.w.rep > 0.0f && in.rep > 0) {
+    rep = p.w.rep * zoneSum(avx, q, in.repX, in.repY, in.repZ, in.rep, p.rho, -p.rho / p.dRep) /
+          static_cast<float>(in.rep);
+  }
+  if (p.w.oa > 0.0f && in.att > 0) {
+    oa = p.w.oa * zoneSum(avx, q, in.attX, in.attY, in.attZ, in.att, -p.rho, p.rho / p.dAtt1) /
+         static_cast<float>(in.att);
+  }
+}
+
 }  // namespace
 
 EnergyTerms energyTerms(const AgentInput& in, const Candidates& c, std::size_t k, const EnergyParams& p) {
+  return energyTermsWith(useAvx(), in, c, k, p);
+}
+
+namespace {
+}  // namespace
+
+EnergyTerms energyTermsWith(bool avx, const AgentInput& in, const Candidates& c, std::size_t k, const EnergyParams& p) {
   EnergyTerms e;
   const Vec3 v(c.vx[k], c.vy[k], c.vz[k]);
   const float rho = p.rho;
-  // eq. 4: repulsion from the predicted positions (agent i with v, neighbour j with its own velocity)
-  if (p.w.rep > 0.0f && in.rep > 0) {
-    const Vec3 q = in.p + v * p.dt;
-    const float inv = 1.0f / p.dRep;
-    float s = 0.0f;
-    for (std::size_t j = 0; j < in.rep; ++j) {
-      const Vec3 d(q.x() - in.repX[j], q.y() - in.repY[j], q.z() - in.repZ[j]);
-      s += std::exp(rho * (1.0f - d.norm() * inv));
-    }
-    e.rep = p.w.rep * s / static_cast<float>(in.rep);
-  }
-  // eq. 6: attraction toward the neighbours' current positions
-  if (p.w.oa > 0.0f && in.att > 0) {
-    const Vec3 q = in.p + v * p.dt;
-    const float inv = 1.0f / p.dAtt1;
-    float s = 0.0f;
-    for (std::size_t j = 0; j < in.att; ++j) {
-      const Vec3 d(q.x() - in.attX[j], q.y() - in.attY[j], q.z() - in.attZ[j]);
-      s += std::exp(rho * (d.norm() * inv - 1.0f));
-    }
-    e.oa = p.w.oa * s / static_cast<float>(in.att);
-  }
+  // eq. 4: repulsion from the predicted positions (agent i with v, neighbour j with its own velocity); eq. 6:
+  // attraction toward the neighbours' current positions
+  zoneTerms(avx, in, in.p + v * p.dt, p, e.rep, e.oa);
   // eq. 11-12, startled: Ψ = 1 − |p' − p_sti| / d_danger per predator that startles the agent (the distance to
   // a sphere's surface)
   if (p.w.env > 0.0f && in.dangers > 0) {
@@ -183,21 +235,9 @@ void BoundFactors::build(const Candidates& c, const EnergyParams& p) {
 std::size_t argminEnergyBounded(const AgentInput& in, const Candidates& c, const BoundFactors& f, std::size_t first,
                                 std::size_t last, const EnergyParams& p, std::vector<float>& lower, float* best) {
   // the interaction energies at q = p (no move): each neighbour's distance changes by at most |v| Δt
+  const bool avx = useAvx();
   float rep0 = 0.0f, oa0 = 0.0f;
-  if (p.w.rep > 0.0f && in.rep > 0) {
-    for (std::size_t j = 0; j < in.rep; ++j) {
-      const Vec3 d(in.p.x() - in.repX[j], in.p.y() - in.repY[j], in.p.z() - in.repZ[j]);
-      rep0 += std::exp(p.rho * (1.0f - d.norm() / p.dRep));
-    }
-    rep0 *= p.w.rep / static_cast<float>(in.rep);
-  }
-  if (p.w.oa > 0.0f && in.att > 0) {
-    for (std::size_t j = 0; j < in.att; ++j) {
-      const Vec3 d(in.p.x() - in.attX[j], in.p.y() - in.attY[j], in.p.z() - in.attZ[j]);
-      oa0 += std::exp(p.rho * (d.norm() / p.dAtt1 - 1.0f));
-    }
-    oa0 *= p.w.oa / static_cast<float>(in.att);
-  }
+  zoneTerms(avx, in, in.p, p, rep0, oa0);
   float danger0 = 0.0f;
   if (p.w.env > 0.0f && in.dangers > 0) {
     for (std::size_t j = 0; j < in.dangers; ++j) {
@@ -210,7 +250,7 @@ std::size_t argminEnergyBounded(const AgentInput& in, const Candidates& c, const
   lower.resize(last - first + kLanes);
   const std::size_t blocks = (last - first) / kLanes;
 #if SWARMSIM_X86_LANES
-  (useAvx() ? ownTotalsAvx : ownTotalsSse)(in, c, first, blocks, p, lower.data());
+  (avx ? ownTotalsAvx : ownTotalsSse)(in, c, first, blocks, p, lower.data());
 #else
   ownTotalsLanes<ScalarLanes>(in, c, first, blocks, p, lower.data());
 #endif
@@ -232,10 +272,10 @@ std::size_t argminEnergyBounded(const AgentInput& in, const Candidates& c, const
   }
   // the exact E where the bound is least, then wherever the bound could still beat the best so far
   std::size_t arg = start;
-  float least = energyTerms(in, c, start, p).total();
+  float least = energyTermsWith(avx, in, c, start, p).total();
   for (std::size_t k = first; k < last; ++k) {
     if (k == start || !(lower[k - first] <= least)) continue;
-    const float e = energyTerms(in, c, k, p).total();
+    const float e = energyTermsWith(avx, in, c, k, p).total();
     if (e < least || (e == least && k < arg)) {  // the lowest index wins a tie, as in argminEnergy
       least = e;
       arg = k;

@@ -83,6 +83,8 @@ inline Vec3 unitOrZero(const Vec3& x) {
 // E(i, v, a) term by term (eq. 4, 6, 7, 9, 10, 11-12, 13, 14); E_env is split into its attracted
 // (lure) and startled (danger) parts
 EnergyTerms energyTerms(const AgentInput& in, const Candidates& c, std::size_t k, const EnergyParams& p);
+// the same with the lane type chosen by the caller (avx: useAvx(), core/lanes.hpp); both give the same bits
+EnergyTerms energyTermsWith(bool avx, const AgentInput& in, const Candidates& c, std::size_t k, const EnergyParams& p);
 
 // the candidate of [first, last) with the least E (ties: the lowest index), and its E
 std::size_t argminEnergy(const AgentInput& in, const Candidates& c, std::size_t first, std::size_t last,

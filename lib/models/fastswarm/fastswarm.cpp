@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "core/error.hpp"
+#include "core/lanes.hpp"
 #include "core/parallel.hpp"
 #include "fields/curl_noise.hpp"
 #include "fields/noise_field.hpp"
@@ -85,6 +86,86 @@ struct Scratch {
   std::vector<float> lower;  // the candidates' lower bounds
 };
 
+// the zones of the agent at sorted position `self` (q), gathered from one run [begin, end) of the grid's sorted
+// points eight at a time: repulsion neighbours (d^2 < rep2) as predicted positions p + v dt, attraction
+// neighbours (att12 <= d^2 <= r2) as positions, each in the run's order (the order of a plain loop)
+struct ZoneInput {
+  const float *sx, *sy, *sz, *vx, *vy, *vz;
+  std::size_t n;
+  std::uint32_t self;
+  float qx, qy, qz, rep2, att12, r2, dt;
+};
+
+template <typename L>
+__attribute__((always_inline)) inline void collectRunLanes(const ZoneInput& z, std::uint32_t begin, std::uint32_t end,
+                                                           Scratch& sc) {
+  using V = typename L::V;
+  alignas(32) static constexpr float kIndex[kLanes] = {0, 1, 2, 3, 4, 5, 6, 7};
+  const V qx = L::set1(z.qx), qy = L::set1(z.qy), qz = L::set1(z.qz);
+  const V rep2 = L::set1(z.rep2), att12 = L::set1(z.att12), r2 = L::set1(z.r2), index = L::load(kIndex);
+  const auto take = [&](std::uint32_t k, float d2) __attribute__((always_inline)) {
+    if (k == z.self) return;
+    if (d2 < z.rep2) {
+      sc.rx.push_back(z.sx[k] + z.vx[k] * z.dt);
+      sc.ry.push_back(z.sy[k] + z.vy[k] * z.dt);
+      sc.rz.push_back(z.sz[k] + z.vz[k] * z.dt);
+    } else if (d2 >= z.att12) {
+      sc.ax.push_back(z.sx[k]);
+      sc.ay.push_back(z.sy[k]);
+      sc.az.push_back(z.sz[k]);
+    }
+  };
+  std::uint32_t j = begin;
+  for (; j < end && j + kLanes <= z.n; j += kLanes) {
+    const V dx = L::sub(L::load(z.sx + j), qx), dy = L::sub(L::load(z.sy + j), qy), dz = L::sub(L::load(z.sz + j), qz);
+    const V d2 = L::add(L::add(L::mul(dx, dx), L::mul(dy, dy)), L::mul(dz, dz));
+    const V inRun = L::lt(index, L::set1(static_cast<float>(end - j)));
+    // in a zone: closer than d_rep, or from d_att,1 to d_att,2
+    const V hit = L::band(inRun, L::band(L::le(d2, r2), L::bor(L::lt(d2, rep2), L::le(att12, d2))));
+    unsigned m = L::mask(hit);
+    if (m == 0) continue;
+    float d[kLanes];
+    L::store(d, d2);
+    for (; m != 0; m &= m - 1) {
+      const unsigned i = static_cast<unsigned>(__builtin_ctz(m));
+      take(j + i, d[i]);
+    }
+  }
+  for (; j < end; ++j) {  // the last points of the grid (fewer than eight left)
+    const float dx = z.sx[j] - z.qx, dy = z.sy[j] - z.qy, dz = z.sz[j] - z.qz;
+    const float d2 = dx * dx + dy * dy + dz * dz;
+    if (d2 <= z.r2) take(j, d2);
+  }
+}
+
+template <typename L>
+__attribute__((always_inline)) inline void collectZonesLanes(const UniformGrid& grid, const ZoneInput& z, float r,
+                                                             Scratch& sc) {
+  // (always inlined: a lambda does not inherit the AVX target, and a call would not inline the lanes)
+  grid.forEachRun(z.qx, z.qy, z.qz, r, [&](std::uint32_t b, std::uint32_t e) __attribute__((always_inline)) {
+    collectRunLanes<L>(z, b, e, sc);
+  });
+}
+
+#if SWARMSIM_X86_LANES
+__attribute__((flatten)) void collectZonesSse(const UniformGrid& grid, const ZoneInput& z, float r, Scratch& sc) {
+  collectZonesLanes<SseLanes>(grid, z, r, sc);
+}
+SWARMSIM_AVX __attribute__((flatten)) void collectZonesAvx(const UniformGrid& grid, const ZoneInput& z, float r,
+                                                           Scratch& sc) {
+  collectZonesLanes<AvxLanes>(grid, z, r, sc);
+}
+#endif
+
+void collectZones(bool avx, const UniformGrid& grid, const ZoneInput& z, float r, Scratch& sc) {
+#if SWARMSIM_X86_LANES
+  (avx ? collectZonesAvx : collectZonesSse)(grid, z, r, sc);
+#else
+  (void)avx;
+  collectZonesLanes<ScalarLanes>(grid, z, r, sc);
+#endif
+}
+
 class Fastswarm final : public Model {
  public:
   Fastswarm(const FastswarmParams& p, const World& world) : p_(p) {
@@ -126,7 +207,7 @@ class Fastswarm final : public Model {
   void step(const World& world, SwarmState& s, const StepInfo& info) override {
     const std::size_t n = s.size();
     const float dAtt2 = static_cast<float>(p_.dAtt2);
-    grid_.build(s.px.data(), s.py.data(), s.pz.data(), n, dAtt2);
+    grid_.build(s.px.data(), s.py.data(), s.pz.data(), n, dAtt2 * 0.25f);
     seen_.build(info.seen, dAtt2);  // the other swarms' agents count as neighbours in E_rep and E_oa
     const auto& order = grid_.order();
     const float* sx = grid_.sortedX().data();
@@ -186,23 +267,15 @@ class Fastswarm final : public Model {
     const fastswarm::Reference& ref = *p_.reference;
     // per agent, dynamically scheduled: an agent's search (microseconds) outweighs its neighbour lookup, and a
     // dense swarm fills only a few grid cells, which would leave threads idle if the work went cell by cell
+    const bool avx = useAvx();
     parallelForDynamic(n, 16, [&](std::size_t k) {
       Scratch& sc = scratch_[static_cast<std::size_t>(threadIndex())];
       for (auto* a : {&sc.rx, &sc.ry, &sc.rz, &sc.ax, &sc.ay, &sc.az}) a->clear();
       // the zones, in the grid's (deterministic) order: repulsion within d_rep (predicted positions),
       // attraction from d_att,1 to d_att,2 (current positions)
-      grid_.forEachNeighbor(sx[k], sy[k], sz[k], dAtt2, [&](std::uint32_t j, float, float, float, float d2) {
-        if (j == k) return;
-        if (d2 < rep2) {
-          sc.rx.push_back(sx[j] + vx_[j] * dt);
-          sc.ry.push_back(sy[j] + vy_[j] * dt);
-          sc.rz.push_back(sz[j] + vz_[j] * dt);
-        } else if (d2 >= att12) {
-          sc.ax.push_back(sx[j]);
-          sc.ay.push_back(sy[j]);
-          sc.az.push_back(sz[j]);
-        }
-      });
+      ZoneInput zin{sx, sy, sz, vx_.data(), vy_.data(), vz_.data(), n, static_cast<std::uint32_t>(k), sx[k], sy[k], sz[k],
+                    rep2, att12, dAtt2 * dAtt2, dt};
+      collectZones(avx, grid_, zin, dAtt2, sc);
       seen_.forEachNear(sx[k], sy[k], sz[k], dAtt2, [&](float px, float py, float pz, float ux, float uy, float uz, float d2) {
         if (d2 < rep2) {
           sc.rx.push_back(px + ux * dt);

@@ -400,7 +400,7 @@ Reference readReference(const std::string& path) {
     }
     const std::int64_t version = h5::readIntAttr(f, "format_version");
     if (version != Reference::kFormatVersion && version != 1) {
-      throw InputError(path + ": reference format version " + std::to_string(version) + ", this build reads " +
+      throw InputError(path + ": reference format version " + std::to_string(version) + ", this build reads 1 and " +
                        std::to_string(Reference::kFormatVersion));
     }
     ref.formatVersion = version;
@@ -427,7 +427,10 @@ Reference readReference(const std::string& path) {
   ref.v = readDataset<double>(samples, "v", H5T_NATIVE_DOUBLE, 3, path, n);
   ref.a = readDataset<double>(samples, "a", H5T_NATIVE_DOUBLE, 3, path, n);
   ref.speed = readDataset<double>(samples, "speed", H5T_NATIVE_DOUBLE, 1, path, n);
-  if (H5Lexists(samples, "next", H5P_DEFAULT) > 0) {
+  if (ref.formatVersion >= 2 && H5Lexists(samples, "next", H5P_DEFAULT) <= 0) {
+    throw InputError(path + ": format version " + std::to_string(ref.formatVersion) + " without /samples/next");
+  }
+  if (ref.formatVersion >= 2) {
     ref.next = readDataset<std::int64_t>(samples, "next", H5T_NATIVE_INT64, 1, path, n);
     for (const std::int64_t j : ref.next) {
       if (j < -1 || j >= static_cast<std::int64_t>(n)) throw InputError(path + ": /samples/next: an index outside the samples");
