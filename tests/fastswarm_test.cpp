@@ -21,6 +21,7 @@
 #include "models/fastswarm/energy.hpp"
 #include "models/fastswarm/fastswarm.hpp"
 #include "models/fastswarm/reference.hpp"
+#include "refusal_check.hpp"
 #include "test_util.hpp"
 
 using namespace swarmsim::fastswarm;
@@ -438,22 +439,12 @@ TEST_CASE("fastswarm: a tracks spawn continues the recorded insects from where t
   // and then they move on: frame 19 differs
   CHECK(pos[3 * 14 * 19] != pos[0]);
   // bad spawns: exit 2 naming the JSON path
-  struct Case {
-    std::string set, message;
-  } cases[] = {
+  const std::vector<swarmsim_test::Refusal> cases = {
       {"'swarms[0].count=20'", "the tracks spawn gives 14 individuals at sample 0"},
       {"'swarms[0].spawn.sample=2'", "swarms[0].spawn.sample"},
       {"'swarms[0].spawn.file=\"missing.csv\"'", "swarms[0].spawn.file"},
   };
-  for (const auto& c : cases) {
-    const auto v = runSwarmsim("validate " + shellQuote(scenario) + " --set " + c.set, dir.path());
-    INFO(c.set << "\nstderr: " << v.err);
-    CHECK(v.exitCode == 2);
-    CHECK_THAT(v.err, Contains(c.message));
-  }
-  const auto b = runSwarmsim("bench " + shellQuote(scenario) + " --agents 100 --frames 1 --repeat 1", dir.path());
-  CHECK(b.exitCode == 2);
-  CHECK_THAT(b.err, Contains("--agents cannot rescale it"));
+  swarmsim_test::checkRefusals(scenario, cases, "--agents cannot rescale it", dir.path());
 }
 
 TEST_CASE("fastswarm: startled insects keep d_danger from the passing ball, and gather again", "[fastswarm][scenario]") {

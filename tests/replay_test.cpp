@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "io/trajectory_reader.hpp"
+#include "refusal_check.hpp"
 #include "test_util.hpp"
 
 using Catch::Matchers::Contains;
@@ -233,9 +234,7 @@ TEST_CASE("replay: a fastswarm agent whose only neighbour is a replayed insect i
 TEST_CASE("replay and sees: bad blocks are exit 2 naming the JSON path", "[replay][input]") {
   TempDir dir;
   const std::string scenario = swarmsim_test::kSourceTree + "/scenarios/fastswarm_mixing.json";
-  struct Case {
-    std::string set, message;
-  } cases[] = {
+  const std::vector<swarmsim_test::Refusal> cases = {
       {"'swarms[1].sees=[\"ghosts\"]'", "swarms[1].sees[0]: expected the name of a swarm of this scenario (real, simulated)"},
       {"'swarms[1].sees=[\"simulated\"]'", "swarms[1].sees[0]: expected another swarm's name"},
       {"'swarms[1].sees=[\"real\",\"real\"]'", "swarms[1].sees[1]: expected a swarm not listed before"},
@@ -247,13 +246,5 @@ TEST_CASE("replay and sees: bad blocks are exit 2 naming the JSON path", "[repla
       {"'swarms[0].params.start=-1'", "swarms[0].params.start"},
       {"'swarms[1].spawn=null'", "swarms[1].spawn"},
   };
-  for (const auto& c : cases) {
-    const auto v = runSwarmsim("validate " + shellQuote(scenario) + " --set " + c.set, dir.path());
-    INFO(c.set << "\nstderr: " << v.err);
-    CHECK(v.exitCode == 2);
-    CHECK_THAT(v.err, Contains(c.message));
-  }
-  const auto b = runSwarmsim("bench " + shellQuote(scenario) + " --agents 100 --frames 1 --repeat 1", dir.path());
-  CHECK(b.exitCode == 2);
-  CHECK_THAT(b.err, Contains("places its agents itself; --agents cannot rescale it"));
+  swarmsim_test::checkRefusals(scenario, cases, "places its agents itself; --agents cannot rescale it", dir.path());
 }
