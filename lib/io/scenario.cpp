@@ -373,6 +373,8 @@ Scenario parseScenario(const Json& json, const std::string& file) {
     sc.swarms.push_back(std::move(spec));
   }
   // "sees": names of other swarms of this scenario, each at most once
+  std::string all;  // every swarm's name, for the messages
+  for (const auto& o : sc.swarms) all += (all.empty() ? "" : ", ") + o.name;
   for (std::size_t i = 0; i < sc.swarms.size(); ++i) {
     std::set<std::string> listed;
     for (std::size_t k = 0; k < seesNames[i].size(); ++k) {
@@ -380,8 +382,6 @@ Scenario parseScenario(const Json& json, const std::string& file) {
       const std::string at = "sees[" + std::to_string(k) + "]";
       std::size_t j = 0;
       while (j < sc.swarms.size() && sc.swarms[j].name != want) ++j;
-      std::string all;
-      for (const auto& o : sc.swarms) all += (all.empty() ? "" : ", ") + o.name;
       if (j == sc.swarms.size()) swarms[i].failExpected(at, "the name of a swarm of this scenario (" + all + ")", want);
       if (j == i) swarms[i].failExpected(at, "another swarm's name (a model always sees its own swarm)", want);
       if (!listed.insert(want).second) swarms[i].failExpected(at, "a swarm not listed before", want);

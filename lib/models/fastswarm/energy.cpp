@@ -111,7 +111,6 @@ SWARMSIM_AVX __attribute__((flatten)) void ownTotalsAvx(const AgentInput& in, co
 }
 #endif
 
-
 // Σ_j e^{a + b |q − p_j|} over n points, eight at a time on SIMD lanes with the lanes' e^x, the lanes added in a
 // fixed order at the end: every lane type gives the same bits (the eq. 4, 6 and 12 sums)
 template <typename L>
@@ -180,9 +179,6 @@ inline void zoneTerms(bool avx, const AgentInput& in, const Vec3& q, const Energ
 EnergyTerms energyTerms(const AgentInput& in, const Candidates& c, std::size_t k, const EnergyParams& p) {
   return energyTermsWith(useAvx(), in, c, k, p);
 }
-
-namespace {
-}  // namespace
 
 EnergyTerms energyTermsWith(bool avx, const AgentInput& in, const Candidates& c, std::size_t k, const EnergyParams& p) {
   EnergyTerms e;

@@ -86,6 +86,21 @@ struct Scratch {
   std::vector<float> lower;  // the candidates' lower bounds
 };
 
+// a neighbour at squared distance d2 into the agent's zones: repulsion (closer than d_rep) as its predicted
+// position p + v dt, attraction (d_att,1 and beyond) as its position; between the two, neither
+__attribute__((always_inline)) inline void addToZones(Scratch& sc, float d2, float rep2, float att12, float px, float py,
+                                                      float pz, float vx, float vy, float vz, float dt) {
+  if (d2 < rep2) {
+    sc.rx.push_back(px + vx * dt);
+    sc.ry.push_back(py + vy * dt);
+    sc.rz.push_back(pz + vz * dt);
+  } else if (d2 >= att12) {
+    sc.ax.push_back(px);
+    sc.ay.push_back(py);
+    sc.az.push_back(pz);
+  }
+}
+
 // the zones of the agent at sorted position `self` (q), gathered from one run [begin, end) of the grid's sorted
 // points eight at a time: repulsion neighbours (d^2 < rep2) as predicted positions p + v dt, attraction
 // neighbours (att12 <= d^2 <= r2) as positions, each in the run's order (the order of a plain loop)
@@ -104,16 +119,7 @@ __attribute__((always_inline)) inline void collectRunLanes(const ZoneInput& z, s
   const V qx = L::set1(z.qx), qy = L::set1(z.qy), qz = L::set1(z.qz);
   const V rep2 = L::set1(z.rep2), att12 = L::set1(z.att12), r2 = L::set1(z.r2), index = L::load(kIndex);
   const auto take = [&](std::uint32_t k, float d2) __attribute__((always_inline)) {
-    if (k == z.self) return;
-    if (d2 < z.rep2) {
-      sc.rx.push_back(z.sx[k] + z.vx[k] * z.dt);
-      sc.ry.push_back(z.sy[k] + z.vy[k] * z.dt);
-      sc.rz.push_back(z.sz[k] + z.vz[k] * z.dt);
-    } else if (d2 >= z.att12) {
-      sc.ax.push_back(z.sx[k]);
-      sc.ay.push_back(z.sy[k]);
-      sc.az.push_back(z.sz[k]);
-    }
+    if (k != z.self) addToZones(sc, d2, z.rep2, z.att12, z.sx[k], z.sy[k], z.sz[k], z.vx[k], z.vy[k], z.vz[k], z.dt);
   };
   std::uint32_t j = begin;
   for (; j < end && j + kLanes <= z.n; j += kLanes) {
@@ -234,9 +240,7 @@ class Fastswarm final : public Model {
     // v̂^cd (eq. 15): toward each agent's goal keypoint, the goal advanced first where the agent reached it
     if (p_.control) {
       const KeypointCurve& curve = *p_.control;
-      std::uint32_t maxId = 0;
-      for (std::size_t i = 0; i < n; ++i) maxId = std::max(maxId, s.id[i]);
-      if (tasks_.size() <= maxId) tasks_.resize(static_cast<std::size_t>(maxId) + 1);
+      if (tasks_.size() < n) tasks_.resize(n);  // by id: ids are [0, n) (core/swarm_state.hpp)
       for (auto* a : {&cx_, &cy_, &cz_}) a->resize(n);
       parallelFor(n, [&](std::size_t k) {
         const Vec3 p(sx[k], sy[k], sz[k]);
@@ -252,11 +256,7 @@ class Fastswarm final : public Model {
         cz_[k] = d.z();
       });
     }
-    if (p_.successors) {  // each agent's current sample, by id (-1: none yet)
-      std::uint32_t maxId = 0;
-      for (std::size_t i = 0; i < n; ++i) maxId = std::max(maxId, s.id[i]);
-      if (current_.size() <= maxId) current_.resize(static_cast<std::size_t>(maxId) + 1, -1);
-    }
+    if (p_.successors && current_.size() < n) current_.resize(n, -1);  // by id, -1: none yet
     // the stimuli's centres now
     stimulusAt_.clear();
     for (const FastswarmStimulus& st : p_.stimuli) stimulusAt_.push_back(st.path.at(info.time).cast<float>());
@@ -277,15 +277,7 @@ class Fastswarm final : public Model {
                     rep2, att12, dAtt2 * dAtt2, dt};
       collectZones(avx, grid_, zin, dAtt2, sc);
       seen_.forEachNear(sx[k], sy[k], sz[k], dAtt2, [&](float px, float py, float pz, float ux, float uy, float uz, float d2) {
-        if (d2 < rep2) {
-          sc.rx.push_back(px + ux * dt);
-          sc.ry.push_back(py + uy * dt);
-          sc.rz.push_back(pz + uz * dt);
-        } else if (d2 >= att12) {
-          sc.ax.push_back(px);
-          sc.ay.push_back(py);
-          sc.az.push_back(pz);
-        }
+        addToZones(sc, d2, rep2, att12, px, py, pz, ux, uy, uz, dt);
       });
       AgentInput in;
       in.p = Vec3(sx[k], sy[k], sz[k]);
@@ -332,7 +324,7 @@ class Fastswarm final : public Model {
         const std::int64_t cur = current_[id];
         const std::int64_t nxt = cur >= 0 ? ref.next[static_cast<std::size_t>(cur)] : -1;
         if (nxt >= 0 && (static_cast<std::size_t>(nxt) < first || static_cast<std::size_t>(nxt) >= last) &&
-            fastswarm::energyTerms(in, cand_, static_cast<std::size_t>(nxt), ep).total() < bestE) {
+            fastswarm::energyTermsWith(avx, in, cand_, static_cast<std::size_t>(nxt), ep).total() < bestE) {
           c = static_cast<std::size_t>(nxt);
         }
         if (nxt >= 0 && static_cast<std::int64_t>(c) == nxt) followed_.fetch_add(1, std::memory_order_relaxed);

@@ -3,13 +3,13 @@
 #include <openssl/evp.h>
 
 #include <algorithm>
-#include <unordered_map>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <limits>
 #include <numeric>
 #include <ostream>
+#include <unordered_map>
 
 #include <nlohmann/json.hpp>
 
@@ -427,10 +427,7 @@ Reference readReference(const std::string& path) {
   ref.v = readDataset<double>(samples, "v", H5T_NATIVE_DOUBLE, 3, path, n);
   ref.a = readDataset<double>(samples, "a", H5T_NATIVE_DOUBLE, 3, path, n);
   ref.speed = readDataset<double>(samples, "speed", H5T_NATIVE_DOUBLE, 1, path, n);
-  if (ref.formatVersion >= 2 && H5Lexists(samples, "next", H5P_DEFAULT) <= 0) {
-    throw InputError(path + ": format version " + std::to_string(ref.formatVersion) + " without /samples/next");
-  }
-  if (ref.formatVersion >= 2) {
+  if (ref.formatVersion >= 2) {  // (readDataset names a missing one)
     ref.next = readDataset<std::int64_t>(samples, "next", H5T_NATIVE_INT64, 1, path, n);
     for (const std::int64_t j : ref.next) {
       if (j < -1 || j >= static_cast<std::int64_t>(n)) throw InputError(path + ": /samples/next: an index outside the samples");
