@@ -16,6 +16,7 @@
 #include "core/threads.hpp"
 #include "eval/score.hpp"
 #include "io/scenario.hpp"
+#include "io/scene_io.hpp"
 #include "io/trajectory_reader.hpp"
 #include "models/fastswarm/reference.hpp"
 #include "run.hpp"
@@ -81,7 +82,15 @@ int main(int argc, char** argv) {
   std::vector<std::string> sets;
   bool force = false, quiet = false, progress = false;
   CLI::App* run = app.add_subcommand("run", "Run a scenario and write its trajectories to HDF5");
-  run->add_option("scenario", scenarioFile, "Scenario JSON file")->required();
+  CLI::Option* scenarioOption =
+      run->add_option("scenario", scenarioFile, "Scenario JSON file (- reads it from standard input)");
+  std::string fromFile;
+  run->add_option("--from", fromFile,
+                  "Run the scenario stored in a swarmsim output file again, with the mesh files stored in it")
+      ->type_name("OUT.h5")
+      ->excludes(scenarioOption);
+  bool runJson = false;
+  run->add_flag("--json", runJson, "Print the run's summary as one line of JSON on stdout");
   CLI::Option* outOption =
       run->add_option("-o,--output", outPath, "Output HDF5 file (default: the scenario's output.path)");
   run->add_option("--frames", frames, "Number of frames to write (overrides the scenario)")->check(CLI::Range(1LL, 100000000LL));
@@ -206,7 +215,17 @@ int main(int argc, char** argv) {
       }
       setThreadAdaptation(!fixedThreads);
       requestThreads(threads > 0 ? threads : defaultThreadCount());
-      Scenario sc = loadScenario(scenarioFile, overridesFrom(sets, seed));
+      if (scenarioFile.empty() && fromFile.empty()) {
+        throw InputError("run: expected a scenario file (or - for standard input, or --from OUT.h5)");
+      }
+      Scenario sc;
+      if (!fromFile.empty()) {
+        StoredScenario stored = readStoredScenario(fromFile);
+        for (const auto& o : overridesFrom(sets, seed)) applyOverride(stored.scenario, o);
+        sc = parseScenario(stored.scenario, fromFile, stored.inputs);
+      } else {
+        sc = loadScenario(scenarioFile, overridesFrom(sets, seed));
+      }
       // --frames runs the scenario for a different number of frames: the scenario itself (keyframe times
       // and what else it checks against its own length) is parsed as written
       if (frames >= 0) {
@@ -220,6 +239,7 @@ int main(int argc, char** argv) {
       opt.resume = resume;
       opt.checkpointSeconds = checkpointSeconds;
       opt.quiet = quiet;
+      opt.json = runJson;
       opt.progress = progress || isatty(STDERR_FILENO);
       installStopHandlers();
       const RunResult r = runScenario(sc, opt);

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <iostream>
 #include <cstring>
 #include <filesystem>
 #include <optional>
@@ -281,8 +282,12 @@ RunResult runScenario(const Scenario& scenario, const RunOptions& options) {
         result.frames = info.frames;
         std::error_code ec;
         result.bytes = std::filesystem::file_size(target.path(), ec);
-        if (!options.quiet) std::printf("complete: %s is already complete (%lld frames); nothing to resume\n",
-                                        result.path.c_str(), static_cast<long long>(info.frames));
+        if (options.json) {
+          std::cout << summaryJson(result).dump() << "\n" << std::flush;
+        } else if (!options.quiet) {
+          std::printf("complete: %s is already complete (%lld frames); nothing to resume\n", result.path.c_str(),
+                      static_cast<long long>(info.frames));
+        }
         return result;
       }
       if (!hasCkpt) {
@@ -422,6 +427,8 @@ RunResult runScenario(const Scenario& scenario, const RunOptions& options) {
     if (options.progress && tty) std::fprintf(stderr, "\n");
     result.interrupted = writer->framesWritten() < scenario.frames;  // only a stop ends the loop early
     result.frames = writer->framesWritten();
+    result.steps = static_cast<std::int64_t>(sim.stepsDone() - firstStep);
+    result.stepSeconds = secondsSince(loopStart);
     if (result.interrupted) saveCheckpoint();  // the exact step reached, mid-frame or not
     writer->close(!result.interrupted);
     // an interrupted output of this scenario that this run continued is replaced
@@ -449,7 +456,9 @@ RunResult runScenario(const Scenario& scenario, const RunOptions& options) {
   result.wallSeconds = secondsSince(t0);
   std::error_code ec;
   result.bytes = std::filesystem::file_size(target.path(), ec);
-  if (!options.quiet) {
+  if (options.json) {
+    std::cout << summaryJson(result).dump() << "\n" << std::flush;
+  } else if (!options.quiet) {
     std::string resumed;
     if (result.resumedFrom >= 0) resumed = " (resumed at frame " + std::to_string(result.resumedFrom) + ")";
     std::printf("%s: %lld frames%s, %lld agents, %.2f s wall, output %s (%s)\n",
@@ -459,6 +468,20 @@ RunResult runScenario(const Scenario& scenario, const RunOptions& options) {
     std::fflush(stdout);
   }
   return result;
+}
+
+nlohmann::json summaryJson(const RunResult& r) {
+  return {{"output", r.path},
+          {"frames", r.frames},
+          {"agents", r.agents},
+          {"wall_seconds", r.wallSeconds},
+          {"steps", r.steps},
+          {"steps_per_second", r.stepSeconds > 0.0 ? static_cast<double>(r.steps) / r.stepSeconds : 0.0},
+          {"bytes", r.bytes},
+          {"interrupted", r.interrupted},
+          {"complete", !r.interrupted},
+          {"resumed_from", r.resumedFrom >= 0 ? nlohmann::json(r.resumedFrom) : nlohmann::json(nullptr)},
+          {"already_complete", r.alreadyComplete}};
 }
 
 }  // namespace swarmsim

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "core/swarm_state.hpp"
 #include "core/threads.hpp"
 #include "io/checkpoint.hpp"
@@ -57,6 +59,7 @@ struct RunOptions {
   double checkpointSeconds = 30.0;  // wall time between checkpoints (0: after every frame)
   bool progress = false; // progress lines on stderr
   bool quiet = false;    // no summary line
+  bool json = false;     // the summary as one JSON line (summaryJson) on stdout instead
 };
 
 struct RunResult {
@@ -68,7 +71,12 @@ struct RunResult {
   bool interrupted = false;
   std::int64_t resumedFrom = -1;  // frames kept from the interrupted run (-1: a fresh run)
   bool alreadyComplete = false;   // --resume found the output complete: nothing was done
+  std::int64_t steps = 0;         // time steps this run computed
+  double stepSeconds = 0.0;       // wall time of the step loop (writing frames included)
 };
+
+// the run's summary for `run --json` (docs/cli.md#run)
+nlohmann::json summaryJson(const RunResult& r);
 
 // Run the scenario, writing every frame (frame 0 is the initial state, so
 // `frames` frames take (frames - 1) * steps_per_frame steps). A checkpoint is

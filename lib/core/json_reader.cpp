@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <sstream>
 
 #include "core/error.hpp"
@@ -263,27 +264,42 @@ std::optional<Json> parseJsonValue(const std::string& text, const std::string& w
   throw InputError(where + ": " + dom.message());
 }
 
-Json readJsonFile(const std::string& path) {
-  std::error_code ec;
-  if (fs::is_directory(path, ec)) {
-    throw InputError(path + ": cannot read file (it is a directory; expected a JSON scenario file)");
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open file (expected a readable JSON scenario)");
-  // read in blocks up to the limit, so a device or pipe without end (/dev/zero) is refused
+namespace {
+
+// read a stream in blocks up to the limit, so a device or pipe without end (/dev/zero) is refused
+std::string readLimited(std::istream& in, const std::string& name) {
   std::string text;
   std::vector<char> block(1 << 16);
   while (in) {
     in.read(block.data(), static_cast<std::streamsize>(block.size()));
     text.append(block.data(), static_cast<std::size_t>(in.gcount()));
     if (text.size() > kMaxJsonFileBytes) {
-      throw InputError(path + ": file is larger than " + std::to_string(kMaxJsonFileBytes >> 20) +
+      throw InputError(name + ": file is larger than " + std::to_string(kMaxJsonFileBytes >> 20) +
                        " MiB (expected a JSON scenario of at most " + std::to_string(kMaxJsonFileBytes >> 20) +
                        " MiB)");
     }
   }
-  if (in.bad()) throw InputError(path + ": cannot read file (read error; expected a readable JSON scenario)");
-  return parseJsonText(text, path);
+  if (in.bad()) throw InputError(name + ": cannot read file (read error; expected a readable JSON scenario)");
+  return text;
+}
+
+}  // namespace
+
+Json readJsonFile(const std::string& path) {
+  if (path == "-" || path == kStdinName) return parseJsonText(readLimited(std::cin, kStdinName), kStdinName);
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) {
+    throw InputError(path + ": cannot read file (it is a directory; expected a JSON scenario file)");
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open file (expected a readable JSON scenario)");
+  return parseJsonText(readLimited(in, path), path);
+}
+
+std::string resolveInputPath(const std::string& scenarioFile, const std::string& relative) {
+  fs::path p(relative);
+  if (p.is_relative() && scenarioFile != kStdinName) p = fs::path(scenarioFile).parent_path() / p;
+  return fs::absolute(p).lexically_normal().string();
 }
 
 std::string describeValue(const Json& v) {
@@ -297,8 +313,9 @@ std::string describeValue(const Json& v) {
   return type + s;
 }
 
-JsonReader::JsonReader(const Json& object, std::string file, std::string path, Json* resolved)
-    : object_(&object), file_(std::move(file)), path_(std::move(path)), resolved_(resolved) {
+JsonReader::JsonReader(const Json& object, std::string file, std::string path, Json* resolved,
+                       std::shared_ptr<InputFiles> inputs)
+    : object_(&object), file_(std::move(file)), path_(std::move(path)), resolved_(resolved), inputs_(std::move(inputs)) {
   if (resolved_ && !resolved_->is_object()) *resolved_ = Json::object();
 }
 
@@ -464,6 +481,12 @@ std::string JsonReader::requireString(const std::string& key) {
   return v->get<std::string>();
 }
 
+std::string JsonReader::requireInputPath(const std::string& key) {
+  const std::string path = resolveInputPath(file_, requireString(key));
+  record(key, path);
+  return path;
+}
+
 std::string JsonReader::choice(const std::string& key, const std::string& fallback,
                                const std::vector<std::string>& options) {
   const Json* v = lookup(key);
@@ -538,7 +561,7 @@ JsonReader JsonReader::object(const std::string& key, bool required) {
     (*resolved_)[key] = Json::object();
     sub = &(*resolved_)[key];
   }
-  return JsonReader(v ? *v : kEmpty, file_, pathOf(key), sub);
+  return JsonReader(v ? *v : kEmpty, file_, pathOf(key), sub, inputs_);
 }
 
 std::vector<JsonReader> JsonReader::objectArray(const std::string& key, bool required, std::size_t minSize) {
@@ -558,7 +581,7 @@ std::vector<JsonReader> JsonReader::objectArray(const std::string& key, bool req
   for (std::size_t i = 0; i < v->size(); ++i) {
     const std::string p = pathOf(key) + "[" + std::to_string(i) + "]";
     if (!(*v)[i].is_object()) throw InputError(file_ + ": " + p + ": expected an object, got " + describeValue((*v)[i]));
-    out.emplace_back((*v)[i], file_, p, sub ? &(*sub)[i] : nullptr);
+    out.emplace_back((*v)[i], file_, p, sub ? &(*sub)[i] : nullptr, inputs_);
   }
   return out;
 }

@@ -9,12 +9,14 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
 #include <string>
 #include <vector>
 
+#include "core/input_files.hpp"
 #include "core/vec.hpp"
 
 namespace swarmsim {
@@ -98,15 +100,24 @@ Json parseJsonText(const std::string& text, const std::string& file);
 // starting with `where`.
 std::optional<Json> parseJsonValue(const std::string& text, const std::string& where, const std::string& path,
                                    std::size_t depth);
-// read (at most kMaxJsonFileBytes; a directory is refused) and parse a JSON file
+// read (at most kMaxJsonFileBytes; a directory is refused) and parse a JSON file; kStdinName or "-"
+// reads standard input
 Json readJsonFile(const std::string& path);
+// the name a scenario read from standard input goes by in messages
+inline const char* const kStdinName = "<stdin>";
+// `relative` resolved against the folder of `scenarioFile` (the working folder for kStdinName), made
+// absolute and lexically normal; an absolute path is only normalised
+std::string resolveInputPath(const std::string& scenarioFile, const std::string& relative);
 // compact, length-limited rendering of a value for error messages
 std::string describeValue(const Json& v);
 
 class JsonReader {
  public:
   // `resolved` receives every value read, defaults filled in; it may be null
-  JsonReader(const Json& object, std::string file, std::string path, Json* resolved);
+  // `resolved` receives every value read, defaults filled in; it may be null. `inputs` (passed on to the
+  // readers of nested objects) receives the mesh files read through inputFile(); it may be null.
+  JsonReader(const Json& object, std::string file, std::string path, Json* resolved,
+             std::shared_ptr<InputFiles> inputs = nullptr);
 
   const std::string& file() const { return file_; }
   const std::string& path() const { return path_; }
@@ -123,6 +134,11 @@ class JsonReader {
   bool boolean(const std::string& key, bool fallback);
   std::string string(const std::string& key, const std::string& fallback);
   std::string requireString(const std::string& key);
+  // a required file path: a relative one resolves against the folder of the scenario file (the working
+  // folder when the scenario came from standard input, kStdinName); the resolved scenario records the
+  // absolute path, so that it means the same file wherever it is run from
+  std::string requireInputPath(const std::string& key);
+  const std::shared_ptr<InputFiles>& inputs() const { return inputs_; }
   // one of a fixed set of strings
   std::string choice(const std::string& key, const std::string& fallback, const std::vector<std::string>& options);
   Vec3d vec3(const std::string& key, const Vec3d& fallback, Range range = Range::any());
@@ -162,6 +178,7 @@ class JsonReader {
   std::string file_;
   std::string path_;
   Json* resolved_;
+  std::shared_ptr<InputFiles> inputs_;
   std::set<std::string> read_;
 };
 

@@ -251,8 +251,7 @@ std::string trimmed(std::string s) {
 
 }  // namespace
 
-TriangleMesh loadObj(const std::string& path, const MeshTransform& t, double maxCoordinate) {
-  // read the whole file (once: validation and tinyobjloader parse the same text)
+std::string readObjFile(const std::string& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) throw InputError(path + ": cannot open OBJ file (it is a directory)");
   std::ifstream in(path, std::ios::binary);
@@ -260,7 +259,17 @@ TriangleMesh loadObj(const std::string& path, const MeshTransform& t, double max
   std::ostringstream buffer;
   buffer << in.rdbuf();
   if (in.bad()) throw InputError(path + ": cannot open OBJ file (read error)");
-  const std::string text = withoutComments(buffer.str());
+  return buffer.str();
+}
+
+TriangleMesh loadObj(const std::string& path, const MeshTransform& t, double maxCoordinate) {
+  return parseObj(readObjFile(path), path, t, maxCoordinate);
+}
+
+TriangleMesh parseObj(const std::string& bytes, const std::string& path, const MeshTransform& t,
+                      double maxCoordinate) {
+  // validation and tinyobjloader parse the same text
+  const std::string text = withoutComments(bytes);
 
   // our own checks, with line numbers
   const std::vector<ObjLine> lines = splitLines(text);

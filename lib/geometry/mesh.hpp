@@ -54,6 +54,10 @@ struct MeshTransform {
 // coordinate of magnitude above maxCoordinate (the scenario's limit).
 TriangleMesh loadObj(const std::string& path, const MeshTransform& t = MeshTransform(),
                      double maxCoordinate = std::numeric_limits<double>::max());
+// the two halves of loadObj: the file's bytes, and the mesh from bytes (`path` names them in messages)
+std::string readObjFile(const std::string& path);
+TriangleMesh parseObj(const std::string& bytes, const std::string& path, const MeshTransform& t = MeshTransform(),
+                      double maxCoordinate = std::numeric_limits<double>::max());
 
 // True when every undirected edge (by vertex index) belongs to exactly two
 // triangles that use it in opposite directions (consistent orientation) and no

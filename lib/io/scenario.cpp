@@ -79,16 +79,12 @@ void readTrackSpawn(JsonReader& r, SpawnRegion& s) {
   s.velocities = vel;
 }
 
-SpawnRegion readSpawn(JsonReader r, const std::string& scenarioFile) {
+SpawnRegion readSpawn(JsonReader r) {
   SpawnRegion s;
   const std::string type = r.choice("type", "box", {"box", "sphere", "tracks"});
   if (type == "tracks") {
     s.kind = SpawnRegion::Kind::kTracks;
-    namespace fs = std::filesystem;
-    const std::string rel = r.requireString("file");
-    s.file = (fs::path(rel).is_relative() ? fs::path(scenarioFile).parent_path() / rel : fs::path(rel))
-                 .lexically_normal()
-                 .string();
+    s.file = r.requireInputPath("file");
     s.sample = r.integer("sample", 0, 0, std::int64_t{1} << 40);
     readTrackSpawn(r, s);
   } else if (type == "box") {
@@ -265,13 +261,14 @@ void rescaleAgents(Json& scenario, std::int64_t agents, const std::string& file)
   scenario["domain"]["max"] = {c.x() + h.x(), c.y() + h.y(), c.z() + h.z()};
 }
 
-Scenario parseScenario(const Json& json, const std::string& file) {
+Scenario parseScenario(const Json& json, const std::string& file, std::shared_ptr<InputFiles> inputs) {
   if (!json.is_object()) throw InputError(file + ": expected a JSON object at the top level, got " + describeValue(json));
   Scenario sc;
   sc.file = file;
-  JsonReader r(json, file, "", &sc.resolved);
+  sc.inputs = inputs ? std::move(inputs) : std::make_shared<InputFiles>();
+  JsonReader r(json, file, "", &sc.resolved, sc.inputs);
   r.string("description", "");
-  const std::string stem = fs::path(file).stem().string();
+  const std::string stem = file == kStdinName ? "stdin" : fs::path(file).stem().string();
   sc.name = r.string("name", stem.empty() ? "scenario" : stem);
   if (sc.name.empty() || sc.name.find('/') != std::string::npos) {
     r.failExpected("name", "a non-empty name without '/'", sc.name);
@@ -323,7 +320,7 @@ Scenario parseScenario(const Json& json, const std::string& file) {
       if (entry->placesAgents) {
         s.fail("spawn", "model \"" + spec.model + "\" places its agents itself; remove \"spawn\"");
       }
-      spec.spawn = readSpawn(s.object("spawn", true), file);
+      spec.spawn = readSpawn(s.object("spawn", true));
     }
     if (!spawned) {
       spec.spawn.kind = SpawnRegion::Kind::kModel;  // counted after the model's parameters
@@ -395,7 +392,7 @@ Scenario parseScenario(const Json& json, const std::string& file) {
     // relative paths in the file resolve against the scenario's folder; the
     // default (no path given) is in the working directory
     if (json.contains("output") && json["output"].contains("path") && fs::path(path).is_relative()) {
-      sc.output.path = (fs::path(file).parent_path() / path).lexically_normal().string();
+      sc.output.path = resolveInputPath(file, path);
     } else {
       sc.output.path = path;
     }
@@ -414,7 +411,7 @@ Scenario parseScenario(const Json& json, const std::string& file) {
 Scenario loadScenario(const std::string& file, const std::vector<std::string>& overrides) {
   Json json = readJsonFile(file);
   for (const auto& o : overrides) applyOverride(json, o);
-  return parseScenario(json, file);
+  return parseScenario(json, file == "-" ? kStdinName : file);
 }
 
 }  // namespace swarmsim

@@ -42,7 +42,7 @@ struct OutputSpec {
 };
 
 struct Scenario {
-  std::string file;  // the scenario file as given
+  std::string file;  // the scenario file as given (kStdinName for standard input)
   std::vector<std::string> warnings;  // non-fatal findings (e.g. a mesh that is not watertight)
   std::string name;
   std::uint64_t seed = 0;
@@ -53,7 +53,8 @@ struct Scenario {
   std::shared_ptr<const Obstacles> obstacles;  // loaded meshes, spheres, boxes
   std::vector<SwarmSpec> swarms;
   OutputSpec output;
-  Json resolved;  // the scenario with every default filled in
+  Json resolved;  // the scenario with every default filled in, every file path absolute
+  std::shared_ptr<InputFiles> inputs;  // the mesh files it read (stored in the output)
 
   World world() const { return World{domain, dt, seed, obstacles}; }
   std::int64_t agentCount() const;
@@ -67,9 +68,11 @@ void applyOverride(Json& scenario, const std::string& assignment);
 void rescaleAgents(Json& scenario, std::int64_t agents, const std::string& file);
 
 // Check raw scenario JSON and build the Scenario. `file` names the source in
-// error messages and relative paths resolve against its folder.
-Scenario parseScenario(const Json& json, const std::string& file);
-// read, override, parse
+// error messages and relative paths resolve against its folder (against the
+// working folder for kStdinName). Mesh files embedded in `inputs` are taken
+// from there instead of the disk.
+Scenario parseScenario(const Json& json, const std::string& file, std::shared_ptr<InputFiles> inputs = nullptr);
+// read ("-": standard input), override, parse
 Scenario loadScenario(const std::string& file, const std::vector<std::string>& overrides = {});
 
 }  // namespace swarmsim

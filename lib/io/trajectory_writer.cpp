@@ -10,6 +10,7 @@
 #include "core/error.hpp"
 #include "io/checkpoint.hpp"
 #include "io/hdf5_util.hpp"
+#include "io/scene_io.hpp"
 #include "swarmsim/version.hpp"
 
 namespace swarmsim {
@@ -194,6 +195,7 @@ void TrajectoryWriter::create(const Scenario& scenario, const std::vector<SwarmS
   h5::writeAttr(t, "units", std::string("s"));
   t.reset();
   group.reset();
+  writeScene(f, scenario);
   if (H5Fclose(f.release()) < 0) throw OutputError(file_ + ": cannot write the new output file (disk full?)");
 }
 

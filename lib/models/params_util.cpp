@@ -9,9 +9,7 @@
 namespace swarmsim {
 
 TriangleMesh readPlacedMesh(JsonReader& o, const std::string& scenarioFile) {
-  const std::string rel = o.requireString("file");
-  namespace fs = std::filesystem;
-  const fs::path path = fs::path(rel).is_relative() ? fs::path(scenarioFile).parent_path() / rel : fs::path(rel);
+  const std::string path = o.requireInputPath("file");
   MeshTransform t;
   t.translate = o.vec3("translate", Vec3d::Zero(), Range::coordinate());
   t.rotateDeg = o.vec3("rotate", Vec3d::Zero());
@@ -24,7 +22,9 @@ TriangleMesh readPlacedMesh(JsonReader& o, const std::string& scenarioFile) {
     t.scale = o.vec3("scale", Vec3d::Ones(), Range::positive());
   }
   try {
-    return loadObj(path.lexically_normal().string(), t, kMaxCoordinate);
+    const auto readFile = [&] { return readObjFile(path); };
+    const std::string bytes = o.inputs() ? *o.inputs()->read(path, readFile) : readFile();
+    return parseObj(bytes, path, t, kMaxCoordinate);
   } catch (const InputError& e) {  // say which scenario entry referenced it
     throw InputError(scenarioFile + ": " + o.pathOf("file") + ": " + e.what());
   }

@@ -410,10 +410,7 @@ class Fastswarm final : public Model {
 
 FastswarmParams readFastswarmParams(JsonReader& r, const ModelContext& context) {
   FastswarmParams p;
-  namespace fs = std::filesystem;
-  const std::string rel = r.requireString("reference");
-  const fs::path path = fs::path(rel).is_relative() ? fs::path(context.scenarioFile).parent_path() / rel : fs::path(rel);
-  p.referencePath = path.lexically_normal().string();
+  p.referencePath = r.requireInputPath("reference");
   try {
     p.reference = std::make_shared<const fastswarm::Reference>(fastswarm::readReference(p.referencePath));
   } catch (const InputError& e) {

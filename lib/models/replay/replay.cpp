@@ -178,13 +178,9 @@ class ReplayConfig final : public ModelConfig {
 
 }  // namespace
 
-std::shared_ptr<const ModelConfig> parseReplay(JsonReader& r, const ModelContext& context) {
-  namespace fs = std::filesystem;
+std::shared_ptr<const ModelConfig> parseReplay(JsonReader& r, const ModelContext& /*context*/) {
   ReplayParams p;
-  const std::string rel = r.requireString("file");
-  p.file = (fs::path(rel).is_relative() ? fs::path(context.scenarioFile).parent_path() / rel : fs::path(rel))
-               .lexically_normal()
-               .string();
+  p.file = r.requireInputPath("file");
   p.swarm = r.string("swarm", "");
   p.delimiter = r.string("delimiter", "");
   p.columns = r.string("columns", "");

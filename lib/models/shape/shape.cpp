@@ -764,9 +764,11 @@ ShapeParams readShapeParams(JsonReader& r, const ModelContext& context) {
         if (const Json* v = k.raw(key)) one[key] = *v;
       }
       one["file"] = files[i];
-      JsonReader single(one, k.file(), k.pathOf("files") + "[" + std::to_string(i) + "]", nullptr);
+      JsonReader single(one, k.file(), k.pathOf("files") + "[" + std::to_string(i) + "]", nullptr, k.inputs());
       meshes.push_back(readPlacedMesh(single, context.scenarioFile));
+      files[i] = resolveInputPath(k.file(), files[i]);
     }
+    k.resolve("files", files);
     for (std::int64_t rep = 0; rep < repeat; ++rep) {
       for (std::size_t i = 0; i < meshes.size(); ++i) {
         const double t = t0 + interval * static_cast<double>(rep * static_cast<std::int64_t>(meshes.size()) + i);
