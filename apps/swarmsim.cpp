@@ -15,6 +15,7 @@
 #include "core/parallel.hpp"
 #include "core/threads.hpp"
 #include "eval/score.hpp"
+#include "io/export.hpp"
 #include "io/scenario.hpp"
 #include "io/scene_io.hpp"
 #include "io/trajectory_reader.hpp"
@@ -194,6 +195,23 @@ int main(int argc, char** argv) {
   refInfo->add_option("file", refInfoFile, "Reference file")->required();
   refInfo->add_flag("--json", refInfoJson, "Print JSON");
 
+  // export
+  ExportOptions exportOpt;
+  std::string exportFrames;
+  bool exportQuiet = false;
+  CLI::App* exportCmd = app.add_subcommand(
+      "export", "Write an output file as XDMF (ParaView), PLY point clouds (Blender, Houdini, MeshLab) or CSV");
+  exportCmd->add_option("file", exportOpt.input, "swarmsim output file (.h5)")->required();
+  exportCmd->add_option("--format", exportOpt.format, "xdmf, ply or csv")->required()->check(CLI::IsMember({"xdmf", "ply", "csv"}));
+  exportCmd->add_option("-o,--output", exportOpt.output,
+                        "xdmf/csv: the file (csv: - for standard output); ply: the folder (default: beside the .h5)");
+  exportCmd->add_option("--frames", exportFrames, "Frames A:B (half-open, either side optional)")->type_name("A:B");
+  exportCmd->add_option("--swarm", exportOpt.swarm, "Only this swarm (default: every swarm)");
+  exportCmd->add_flag("--force", exportOpt.force, "Replace files an earlier export wrote");
+  exportCmd->add_flag("--relative", exportOpt.relative,
+                      "xdmf: name the .h5 relative to the .xmf (to move both together) instead of by absolute path");
+  exportCmd->add_flag("--quiet", exportQuiet, "No summary line");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -302,6 +320,16 @@ int main(int argc, char** argv) {
     }
     if (*refInfo) {
       fastswarm::printReferenceInfo(fastswarm::readReference(refInfoFile), refInfoFile, refInfoJson, std::cout);
+      return kExitOk;
+    }
+    if (*exportCmd) {
+      if (!exportFrames.empty()) exportOpt.frames = eval::FrameRange::parse(exportFrames);
+      const ExportResult r = runExport(exportOpt, stdout);
+      if (!exportQuiet) {
+        std::fprintf(stderr, "export: %lld frames, %lld %s, %lld file%s -> %s\n", static_cast<long long>(r.frames),
+                     static_cast<long long>(r.rows), exportOpt.format == "xdmf" ? "points referenced" : "points",
+                     static_cast<long long>(r.files), r.files == 1 ? "" : "s", r.where.c_str());
+      }
       return kExitOk;
     }
     if (*evaluate) {

@@ -19,9 +19,7 @@ namespace swarmsim {
 
 namespace fs = std::filesystem;
 
-namespace {
-
-std::string kindOf(const struct stat& st) {
+std::string fileKind(const struct stat& st) {
   if (S_ISDIR(st.st_mode)) return "a directory";
   if (S_ISCHR(st.st_mode)) return "a character device";
   if (S_ISBLK(st.st_mode)) return "a block device";
@@ -31,13 +29,11 @@ std::string kindOf(const struct stat& st) {
   return "not a regular file";
 }
 
-// follow symbolic links of the last component (directories in between are
-// resolved by the kernel as usual); a dangling link resolves to its target
-fs::path followLinks(const fs::path& p0, const std::string& requested) {
-  fs::path p = p0;
+std::string followOutputLinks(const std::string& requested) {
+  fs::path p(requested);
   for (int hops = 0; hops < 40; ++hops) {
     struct stat st {};
-    if (lstat(p.c_str(), &st) != 0 || !S_ISLNK(st.st_mode)) return p;
+    if (lstat(p.c_str(), &st) != 0 || !S_ISLNK(st.st_mode)) return p.string();
     std::error_code ec;
     const fs::path target = fs::read_symlink(p, ec);
     if (ec) throw OutputError(requested + ": cannot read symbolic link " + p.string() + ": " + ec.message());
@@ -46,6 +42,15 @@ fs::path followLinks(const fs::path& p0, const std::string& requested) {
   }
   throw OutputError(requested + ": too many levels of symbolic links");
 }
+
+std::string refuseNonRegular(const std::string& requested) {
+  struct stat st {};
+  if (stat(requested.c_str(), &st) != 0 || S_ISREG(st.st_mode)) return "";
+  if (S_ISDIR(st.st_mode)) return requested + ": is a directory (expected an output file path)";
+  return requested + ": is " + fileKind(st) + "; swarmsim writes only regular files and never replaces anything else";
+}
+
+namespace {
 
 std::string errnoText() { return std::strerror(errno); }
 
@@ -66,7 +71,9 @@ bool isOwnOutputFile(const std::string& path) {
 
 OutputTarget::OutputTarget(const std::string& path, bool force, bool resume) : requested_(path) {
   if (path.empty()) throw OutputError("output path is empty (expected a file path, e.g. -o out/run.h5)");
-  const fs::path resolved = followLinks(fs::path(path), path);
+  // what the path leads to, links followed by the kernel (also /dev/stdout -> /proc/self/fd/1 -> a pipe)
+  if (const std::string why = refuseNonRegular(path); !why.empty()) throw OutputError(why);
+  const fs::path resolved(followOutputLinks(path));
   if (resolved.filename().empty() || resolved.filename() == "." || resolved.filename() == "..") {
     throw OutputError(path + ": expected an output file path, not a folder");
   }
@@ -122,7 +129,7 @@ OutputTarget::OutputTarget(const std::string& path, bool force, bool resume) : r
   for (const std::string* p : {&part_, &ckpt_}) {
     struct stat st {};
     if (lstat(p->c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
-      throw OutputError(path + ": " + *p + " is " + kindOf(st) + "; swarmsim keeps its own partial files there (remove it)");
+      throw OutputError(path + ": " + *p + " is " + fileKind(st) + "; swarmsim keeps its own partial files there (remove it)");
     }
   }
 }
@@ -143,7 +150,7 @@ void OutputTarget::checkFinal(bool force, bool resume) const {
   const std::string shown = path_ == requested_ ? requested_ : requested_ + " (-> " + path_ + ")";
   if (S_ISDIR(st.st_mode)) throw OutputError(shown + ": is a directory (expected an output file path)");
   if (!S_ISREG(st.st_mode)) {
-    throw OutputError(shown + ": is " + kindOf(st) + "; swarmsim writes only regular files and never replaces anything else");
+    throw OutputError(shown + ": is " + fileKind(st) + "; swarmsim writes only regular files and never replaces anything else");
   }
   if (resume) return;  // the resume logic decides what an existing file means
   if (!force) throw OutputError(shown + ": output file exists (use --force to overwrite)");

@@ -12,6 +12,8 @@
 // Files beside the output NAME (all in the same folder, names fixed so that
 // nothing accumulates): .NAME.part (the HDF5 file being written),
 // .NAME.ckpt (the checkpoint a resume starts from), .NAME.lock.
+#include <sys/stat.h>
+
 #include <string>
 
 namespace swarmsim {
@@ -48,6 +50,15 @@ class OutputTarget {
   std::string requested_, path_, dir_, part_, ckpt_, lock_;
   int lockFd_ = -1;
 };
+
+// the path a run writes for `requested`: symbolic links of the last component followed (a dangling
+// link's target); throws OutputError for a loop of links
+std::string followOutputLinks(const std::string& requested);
+// "a directory", "a character device", "a FIFO", ... for messages
+std::string fileKind(const struct stat& st);
+// a message when `requested` exists and leads (links followed by the kernel) to something that is not a
+// regular file, else ""
+std::string refuseNonRegular(const std::string& requested);
 
 // true when `path` is a regular file that is a swarmsim trajectory (HDF5 with
 // the format attribute), a swarmsim reference (`swarmsim reference build`), or

@@ -186,6 +186,18 @@ void TrajectoryWriter::create(const Scenario& scenario, const std::vector<SwarmS
     if (!ids.valid() || H5Dwrite(ids, H5T_NATIVE_UINT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, idRows.data()) < 0) {
       throw OutputError("cannot write ids of swarm '" + s.name + "'");
     }
+    {
+      // every row the swarm's index in scenario order, for viewers that colour by swarm (the XDMF export):
+      // a dataset of its fill value only, with no storage in the file
+      H5Handle fill(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
+      H5Pset_obj_track_times(fill, 0);
+      const auto index = static_cast<std::uint32_t>(i);
+      H5Pset_fill_value(fill, H5T_NATIVE_UINT32, &index);
+      H5Pset_alloc_time(fill, H5D_ALLOC_TIME_LATE);
+      H5Pset_fill_time(fill, H5D_FILL_TIME_IFSET);
+      H5Handle d(H5Dcreate2(g, "swarm_index", H5T_STD_U32LE, ispace, H5P_DEFAULT, fill, H5P_DEFAULT), H5Dclose);
+      if (!d.valid()) throw OutputError("cannot create swarm_index of swarm '" + s.name + "'");
+    }
     if (i < statNames.size() && !statNames[i].empty()) {
       H5Handle sg = createGroup(g, "stats");
       for (const auto& name : statNames[i]) createDataset(sg, name.c_str(), H5T_IEEE_F64LE, 1, tdims, tchunk, 0);
