@@ -212,6 +212,20 @@ int main(int argc, char** argv) {
                       "xdmf: name the .h5 relative to the .xmf (to move both together) instead of by absolute path");
   exportCmd->add_flag("--quiet", exportQuiet, "No summary line");
 
+  // an unknown first word is an unknown subcommand (CLI11 would only say that one is required)
+  if (argc > 1 && argv[1][0] != '-') {
+    std::string known;
+    bool found = false;
+    for (const CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) {
+      known += (known.empty() ? "" : ", ") + sub->get_name();
+      found = found || sub->get_name() == argv[1];
+    }
+    if (!found) {
+      std::fprintf(stderr, "swarmsim: error: unknown subcommand \"%s\" (expected one of %s; see swarmsim --help)\n",
+                   argv[1], known.c_str());
+      return kExitInvalidInput;
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
