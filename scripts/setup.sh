@@ -2,13 +2,22 @@
 # Install the Debian 12 packages swarmsim needs (only the missing ones), then
 # configure and build in Release. Idempotent: with everything present and the
 # build up to date it only runs an incremental `cmake --build`.
+#
+#   scripts/setup.sh           the packages to build and run swarmsim (and its Python scripts)
+#   scripts/setup.sh --tools   also the programs that read our output, for their tests and
+#                              scripts (docs/tools.md): ParaView, Blender, ffmpeg
 set -euo pipefail
+tools=0
+if [ "${1:-}" = "--tools" ]; then tools=1; shift; fi
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${SWARMSIM_BUILD_DIR:-$root/build}"
 
 packages=(build-essential cmake pkg-config libcli11-dev nlohmann-json3-dev libhdf5-dev
           hdf5-tools libeigen3-dev libtinyobjloader-dev catch2 libnanoflann-dev libssl-dev python3 python3-h5py
           python3-matplotlib)
+if [ "$tools" = 1 ]; then
+  packages+=(paraview python3-paraview blender ffmpeg)
+fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

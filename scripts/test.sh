@@ -2,7 +2,8 @@
 # README command 2: set up (packages + Release build) and run the whole test suite with ctest.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-"$root/scripts/setup.sh"
+# --tools: the tests run the real programs that read our output (tests/tools, docs/tools.md)
+"$root/scripts/setup.sh" --tools
 build="${SWARMSIM_BUILD_DIR:-$root/build}"
 cd "$build"
 exec ctest --output-on-failure -j "$(nproc)" "$@"
