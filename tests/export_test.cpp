@@ -282,7 +282,9 @@ TEST_CASE("Output paths that lead to a pipe, a device or a FIFO are refused with
   REQUIRE(runSwarmsim("run " + shellQuote(kScene) + " -o s.h5 --quiet --frames 3", dir.path()).exitCode == 0);
   for (const char* format : {"csv", "xdmf"}) {
     for (const char* target : {"fifo", "link", "null"}) {
-      const auto r = runSwarmsim(std::string("export s.h5 --format ") + format + " -o " + target + " --force", dir.path());
+      const std::string to = std::string(format) == "xdmf" ? std::string(target) + ".xmf2" : target;
+      if (to != target) fs::create_symlink(target, dir.file(to));  // a link with the extension, to the same thing
+      const auto r = runSwarmsim(std::string("export s.h5 --format ") + format + " -o " + to + " --force", dir.path());
       INFO(format << " " << target << ": " << r.err);
       CHECK(r.exitCode == 3);
     }
@@ -432,23 +434,39 @@ TEST_CASE("export ply: a binary point cloud per swarm and frame that reads back 
 TEST_CASE("export xdmf: the .xmf points into the .h5 for every frame, swarm and obstacle", "[export]") {
   TempDir dir;
   REQUIRE(runSwarmsim("run " + shellQuote(kScene) + " -o s.h5 --quiet", dir.path()).exitCode == 0);
+  // the default: s.xmf2, for ParaView's XDMF Reader (a frame is an XML HyperSlab of the dataset)
   REQUIRE(runSwarmsim("export s.h5 --format xdmf --quiet --frames 2:6", dir.path()).exitCode == 0);
-  const std::string x = readText(dir.file("s.xmf"));
-  const auto count = [&](const std::string& what) {
-    std::size_t n = 0;
-    for (std::size_t p = x.find(what); p != std::string::npos; p = x.find(what, p + 1)) ++n;
-    return n;
-  };
-  CHECK(count("<Time Value=") == 4);
-  CHECK(count("TopologyType=\"Polyvertex\"") == 8);
-  CHECK(count("TopologyType=\"Triangle\"") == 12);
   const std::string h5 = fs::weakly_canonical(dir.file("s.h5")).string();
-  CHECK(x.find(h5 + ":/swarms/midges/position|2 0 0:1 1 1:1 400 3:24 400 3") != std::string::npos);
-  CHECK(x.find(h5 + ":/swarms/gnats/velocity|5 0 0:1 1 1:1 150 3:24 150 3") != std::string::npos);
-  CHECK(x.find(h5 + ":/scene/obstacles/0001/faces") != std::string::npos);
-  CHECK(x.find("<Time Value=\"0.08\"/>") != std::string::npos);
-  REQUIRE(runSwarmsim("export s.h5 --format xdmf --relative -o sub/r.xmf --quiet", dir.path()).exitCode == 0);
-  CHECK(readText(dir.file("sub/r.xmf")).find(">../s.h5:/swarms/midges/position|0 0 0") != std::string::npos);
+  for (const char* name : {"s.xmf2", "s.xmf"}) {
+    if (std::string(name) == "s.xmf") {
+      REQUIRE(runSwarmsim("export s.h5 --format xdmf --quiet --frames 2:6 -o s.xmf", dir.path()).exitCode == 0);
+    }
+    const std::string x = readText(dir.file(name));
+    INFO(name);
+    const auto count = [&](const std::string& what) {
+      std::size_t n = 0;
+      for (std::size_t p = x.find(what); p != std::string::npos; p = x.find(what, p + 1)) ++n;
+      return n;
+    };
+    CHECK(count("<Time Value=") == 4);
+    CHECK(count("TopologyType=\"Polyvertex\"") == 8);
+    CHECK(count("TopologyType=\"Triangle\"") == 12);
+    CHECK(x.find(h5 + ":/scene/obstacles/0001/faces") != std::string::npos);
+    CHECK(x.find("<Time Value=\"0.08\"/>") != std::string::npos);
+    CHECK(x.find(h5 + ":/swarms/gnats/swarm_index") != std::string::npos);
+    if (std::string(name) == "s.xmf") {  // the Xdmf3 reader's start:stride:count:dims
+      CHECK(x.find(h5 + ":/swarms/midges/position|2 0 0:1 1 1:1 400 3:24 400 3") != std::string::npos);
+      CHECK(x.find(h5 + ":/swarms/gnats/velocity|5 0 0:1 1 1:1 150 3:24 150 3") != std::string::npos);
+    } else {
+      CHECK(x.find("Format=\"XML\">2 0 0 1 1 1 1 400 3</DataItem><DataItem Dimensions=\"24 400 3\" NumberType=\"Float\" "
+                   "Precision=\"4\" Format=\"HDF\">" + h5 + ":/swarms/midges/position") != std::string::npos);
+      CHECK(count("ItemType=\"HyperSlab\"") == 16);
+    }
+  }
+  REQUIRE(runSwarmsim("export s.h5 --format xdmf --relative -o sub/r.xmf2 --quiet", dir.path()).exitCode == 0);
+  CHECK(readText(dir.file("sub/r.xmf2")).find(">../s.h5:/swarms/midges/position</DataItem>") != std::string::npos);
+  // another extension is refused: neither reader would open it
+  CHECK(runSwarmsim("export s.h5 --format xdmf -o s.xml", dir.path()).exitCode == 2);
 }
 
 TEST_CASE("CLI: an unknown subcommand is one swarmsim error line naming it, exit 2", "[cli]") {

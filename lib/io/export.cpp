@@ -301,9 +301,19 @@ std::string xmlEscape(const std::string& s) {
 ExportResult exportXdmf(const ExportOptions& o, Input& in) {
   ExportResult r;
   if (o.output == "-") throw InputError("-o -: only --format csv can go to standard output");
-  r.where = o.output.empty() ? defaultBeside(o.input, ".xmf") : o.output;
-  // the .h5 as the .xmf names it: absolute (ParaView 5.11's Xdmf3 reader resolves a relative name against
-  // the .xmf's folder only when it is opened with a folder in its path), or relative with --relative
+  r.where = o.output.empty() ? defaultBeside(o.input, ".xmf2") : o.output;
+  // Two dialects, by the file's extension, for ParaView 5.11's two XDMF readers: .xmf2 and .xdmf2 are
+  // opened by its "XDMF Reader" alone (the GUI asks nothing), which reads a frame of a dataset as an XML
+  // HyperSlab item; .xmf, .xdmf (and .xmf3, .xdmf3), which the GUI offers to three readers and
+  // OpenDataFile gives to "Xdmf3ReaderS", get the Xdmf3 reader's "file:/path|start:stride:count:dims".
+  const std::string ext = fs::path(r.where).extension().string();
+  const bool xdmf2 = ext == ".xmf2" || ext == ".xdmf2";
+  if (!xdmf2 && ext != ".xmf" && ext != ".xdmf" && ext != ".xmf3" && ext != ".xdmf3") {
+    throw InputError("-o: expected a file name ending in .xmf2 or .xdmf2 (ParaView's XDMF Reader) or .xmf, "
+                     ".xdmf, .xmf3, .xdmf3 (its Xdmf3 readers), got \"" + r.where + "\"");
+  }
+  // the .h5 as the file names it: absolute (ParaView 5.11's Xdmf3 reader resolves a relative name against
+  // the file's folder only when it is opened with a folder in its path), or relative with --relative
   const fs::path xmfDir = fs::absolute(fs::path(r.where)).parent_path();
   const fs::path h5 = fs::weakly_canonical(fs::absolute(o.input));
   const std::string h5Name = xmlEscape(o.relative ? fs::relative(h5, fs::weakly_canonical(xmfDir)).string() : h5.string());
@@ -315,7 +325,7 @@ ExportResult exportXdmf(const ExportOptions& o, Input& in) {
   x += "<!-- swarmsim export of " + xmlEscape(h5.filename().string()) + " (scenario " +
        xmlEscape(in.info.scenarioName) + "): frames " + std::to_string(in.first) + " to " +
        std::to_string(in.last - 1) + "; docs/tools.md#paraview -->\n";
-  x += "<Xdmf Version=\"3.0\">\n <Domain>\n";
+  x += std::string("<Xdmf Version=\"") + (xdmf2 ? "2.0" : "3.0") + "\">\n <Domain>\n";
   x += "  <Grid Name=\"swarms\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
   for (std::int64_t f = in.first; f < in.last; ++f) {
     char t[32];
@@ -324,21 +334,31 @@ ExportResult exportXdmf(const ExportOptions& o, Input& in) {
     x += "    <Time Value=\"" + std::string(t, tr.ptr) + "\"/>\n";
     for (const SwarmReader& s : in.swarms) {
       const std::string n = std::to_string(s.agents);
-      const std::string slab = "|" + std::to_string(f) + " 0 0:1 1 1:1 " + n + " 3:" + std::to_string(frames) + " " +
-                               n + " 3";
       const std::string base = h5Name + ":/swarms/" + xmlEscape(s.name) + "/";
+      // frame f of a (frames, n, 3) float dataset
+      const auto frameItem = [&](const char* dataset) {
+        const std::string full = "<DataItem Dimensions=\"" + std::to_string(frames) + " " + n +
+                                 " 3\" NumberType=\"Float\" Precision=\"4\" Format=\"HDF\">" + base + dataset;
+        if (xdmf2) {
+          return "<DataItem ItemType=\"HyperSlab\" Dimensions=\"" + n + " 3\" Type=\"HyperSlab\"><DataItem Dimensions=\"3 3\" "
+                 "Format=\"XML\">" + std::to_string(f) + " 0 0 1 1 1 1 " + n + " 3</DataItem>" + full +
+                 "</DataItem></DataItem>";
+        }
+        return "<DataItem Dimensions=\"" + n + " 3\" NumberType=\"Float\" Precision=\"4\" Format=\"HDF\">" + base +
+               dataset + "|" + std::to_string(f) + " 0 0:1 1 1:1 " + n + " 3:" + std::to_string(frames) + " " + n +
+               " 3</DataItem>";
+      };
       x += "    <Grid Name=\"" + xmlEscape(s.name) + "\" GridType=\"Uniform\">\n";
-      // one vertex cell per point: the ids are the row numbers (docs/output.md)
-      x += "     <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" + n +
-           "\" NodesPerElement=\"1\"><DataItem Dimensions=\"" + n + "\" NumberType=\"UInt\" Precision=\"4\" Format=\"HDF\">" +
-           base + "id</DataItem></Topology>\n";
-      x += "     <Geometry GeometryType=\"XYZ\"><DataItem Dimensions=\"" + n +
-           " 3\" NumberType=\"Float\" Precision=\"4\" Format=\"HDF\">" + base + "position" + slab +
-           "</DataItem></Geometry>\n";
+      // one vertex cell per point: the XDMF Reader makes them itself; the Xdmf3 reader needs the
+      // connectivity, which is the id dataset (ids are the row numbers, docs/output.md)
+      x += "     <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" + n + "\" NodesPerElement=\"1\"";
+      x += xdmf2 ? std::string("/>\n")
+                 : "><DataItem Dimensions=\"" + n + "\" NumberType=\"UInt\" Precision=\"4\" Format=\"HDF\">" + base +
+                       "id</DataItem></Topology>\n";
+      x += "     <Geometry GeometryType=\"XYZ\">" + frameItem("position") + "</Geometry>\n";
       if (s.vel.valid()) {
-        x += "     <Attribute Name=\"velocity\" AttributeType=\"Vector\" Center=\"Node\"><DataItem Dimensions=\"" + n +
-             " 3\" NumberType=\"Float\" Precision=\"4\" Format=\"HDF\">" + base + "velocity" + slab +
-             "</DataItem></Attribute>\n";
+        x += "     <Attribute Name=\"velocity\" AttributeType=\"Vector\" Center=\"Node\">" + frameItem("velocity") +
+             "</Attribute>\n";
       }
       x += "     <Attribute Name=\"id\" AttributeType=\"Scalar\" Center=\"Node\"><DataItem Dimensions=\"" + n +
            "\" NumberType=\"UInt\" Precision=\"4\" Format=\"HDF\">" + base + "id</DataItem></Attribute>\n";

@@ -2,8 +2,9 @@
 """ParaView opens `swarmsim export` output as it is (docs/tools.md#paraview).
 
 A two-swarm run with three obstacles (tests/data/scene.json) is exported as XDMF and PLY; pvpython opens
-the .xmf by its bare name from its folder (OpenDataFile chooses the reader, as the GUI's File > Open does),
-and with --relative through ./NAME.xmf; the points, velocities, ids and swarm indices ParaView reads at
+the default .xmf2 by its bare name from its folder (OpenDataFile chooses the reader by the extension, as
+the GUI's File > Open does: XDMF Reader, the only reader for .xmf2), the .xmf dialect (Xdmf3ReaderS), and
+both with --relative after moving them with the .h5 (the .xmf through ./NAME.xmf); the points, velocities, ids and swarm indices ParaView reads at
 three frames, its time steps and the obstacle meshes must equal the .h5. ParaView's PLY reader reads
 the PLY files back: the same positions. Exit 77 (skipped) without pvpython.
 """
@@ -38,10 +39,10 @@ def pvpython(args, cwd):
     run(["pvpython", "--force-offscreen-rendering", os.path.join(HERE, "paraview_read.py")] + args, cwd=cwd)
 
 
-def check_xmf(h5, npz, frames, label):
+def check_xmf(h5, npz, frames, label, reader):
     got = np.load(npz)
-    if str(got["reader"]) != "Xdmf3ReaderS":
-        print("note: %s: ParaView chose %s" % (label, got["reader"]))
+    if str(got["reader"]) != reader:
+        fail("%s: ParaView chose the reader %s, expected %s" % (label, got["reader"], reader))
     times = h5["time"][:]
     if len(got["times"]) != len(times) or not np.allclose(got["times"], times, rtol=0, atol=1e-12):
         fail("%s: ParaView has %d time steps %s, the file %d %s" % (label, len(got["times"]), got["times"][:4],
@@ -89,19 +90,28 @@ def main():
         if len(h5["scene/obstacles"]) != 3:
             fail("expected 3 obstacles in /scene, got %d" % len(h5["scene/obstacles"]))
 
-        # the default .xmf (absolute .h5 path), opened by its bare name
+        # the default .xmf2 (XDMF Reader, the only reader for the extension: the GUI opens it without
+        # asking), opened by its bare name from its folder
         run([SWARMSIM, "export", "scene.h5", "--format", "xdmf"], cwd=tmp)
-        pvpython(["xmf", "scene.xmf", "xmf.npz"] + [str(f) for f in frames], cwd=tmp)
-        check_xmf(h5, os.path.join(tmp, "xmf.npz"), frames, "scene.xmf")
+        pvpython(["xmf", "scene.xmf2", "xmf2.npz"] + [str(f) for f in frames], cwd=tmp)
+        check_xmf(h5, os.path.join(tmp, "xmf2.npz"), frames, "scene.xmf2", "XdmfReader")
 
-        # --relative, moved together with its .h5 into another folder
+        # .xmf: the Xdmf3 dialect, for OpenDataFile's choice (Xdmf3ReaderS); the .h5 by absolute path
+        run([SWARMSIM, "export", "scene.h5", "--format", "xdmf", "-o", "scene.xmf"], cwd=tmp)
+        pvpython(["xmf", "scene.xmf", "xmf.npz"] + [str(f) for f in frames], cwd=tmp)
+        check_xmf(h5, os.path.join(tmp, "xmf.npz"), frames, "scene.xmf", "Xdmf3ReaderS")
+
+        # --relative, moved together with its .h5 into another folder: .xmf2 by its bare name, .xmf through ./
         moved = os.path.join(tmp, "moved")
         os.mkdir(moved)
-        run([SWARMSIM, "export", "scene.h5", "--format", "xdmf", "--relative", "-o", "rel.xmf"], cwd=tmp)
+        for name in ("rel.xmf2", "rel.xmf"):
+            run([SWARMSIM, "export", "scene.h5", "--format", "xdmf", "--relative", "-o", name], cwd=tmp)
+            shutil.move(os.path.join(tmp, name), moved)
         shutil.copy(os.path.join(tmp, "scene.h5"), moved)
-        shutil.move(os.path.join(tmp, "rel.xmf"), moved)
+        pvpython(["xmf", "rel.xmf2", "rel2.npz"] + [str(f) for f in frames], cwd=moved)
+        check_xmf(h5, os.path.join(moved, "rel2.npz"), frames, "moved/rel.xmf2 (--relative)", "XdmfReader")
         pvpython(["xmf", "./rel.xmf", "rel.npz"] + [str(f) for f in frames], cwd=moved)
-        check_xmf(h5, os.path.join(moved, "rel.npz"), frames, "moved/rel.xmf (--relative)")
+        check_xmf(h5, os.path.join(moved, "rel.npz"), frames, "moved/rel.xmf (--relative)", "Xdmf3ReaderS")
 
         # PLY read back by ParaView's PLY reader
         run([SWARMSIM, "export", "scene.h5", "--format", "ply", "-o", "ply"], cwd=tmp)
@@ -118,7 +128,7 @@ def main():
             fail("obstacles.ply: ParaView reads %d points, %d cells; expected %d, %d" %
                  (len(got["ply3_points"]), got["ply3_cells"], len(v), faces))
         print("ok: ParaView read %d time steps; points, velocity, id, swarm at frames %s and %d obstacles equal the "
-              ".h5 (bare name and --relative); PLY equal" % (h5["time"].shape[0], frames, len(h5["scene/obstacles"])))
+              ".h5 (.xmf2 and .xmf, absolute and --relative); PLY equal" % (h5["time"].shape[0], frames, len(h5["scene/obstacles"])))
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
