@@ -2,6 +2,7 @@
 # and dump what ParaView read to an .npz file for the test to compare with the .h5.
 #   pvpython paraview_read.py xmf FILE.xmf OUT.npz FRAME [FRAME ...]
 #   pvpython paraview_read.py ply OUT.npz FILE.ply [FILE.ply ...]
+import os
 import sys
 
 import numpy as np
@@ -29,7 +30,13 @@ mode = sys.argv[1]
 result = {}
 if mode == "xmf":
     path, out, frames = sys.argv[2], sys.argv[3], [int(f) for f in sys.argv[4:]]
-    reader = OpenDataFile(path)  # ParaView picks the reader, as File > Open does
+    # the readers for the file's name, the list the GUI's File > Open asks the user to choose from when it
+    # has more than one (pqLoadDataReaction)
+    factory = sm.vtkSMProxyManager.GetProxyManager().GetReaderFactory()
+    factory.UpdateAvailableReaders()
+    listed = factory.GetReaders(os.path.abspath(path), sm.ActiveConnection.Session)
+    result["listed"] = np.array([listed.GetString(i) for i in range(1, listed.GetNumberOfStrings(), 3)])
+    reader = OpenDataFile(path)  # ParaView picks the reader
     result["reader"] = np.array(reader.GetXMLName())
     times = list(reader.TimestepValues)
     result["times"] = np.array(times)

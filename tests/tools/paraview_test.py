@@ -39,10 +39,13 @@ def pvpython(args, cwd):
     run(["pvpython", "--force-offscreen-rendering", os.path.join(HERE, "paraview_read.py")] + args, cwd=cwd)
 
 
-def check_xmf(h5, npz, frames, label, reader):
+def check_xmf(h5, npz, frames, label, reader, alone=False):
     got = np.load(npz)
     if str(got["reader"]) != reader:
         fail("%s: ParaView chose the reader %s, expected %s" % (label, got["reader"], reader))
+    if alone and list(got["listed"]) != [reader]:
+        fail("%s: the readers for its name are %s: the GUI would ask which one (expected %s alone)" %
+             (label, list(got["listed"]), reader))
     times = h5["time"][:]
     if len(got["times"]) != len(times) or not np.allclose(got["times"], times, rtol=0, atol=1e-12):
         fail("%s: ParaView has %d time steps %s, the file %d %s" % (label, len(got["times"]), got["times"][:4],
@@ -94,7 +97,7 @@ def main():
         # asking), opened by its bare name from its folder
         run([SWARMSIM, "export", "scene.h5", "--format", "xdmf"], cwd=tmp)
         pvpython(["xmf", "scene.xmf2", "xmf2.npz"] + [str(f) for f in frames], cwd=tmp)
-        check_xmf(h5, os.path.join(tmp, "xmf2.npz"), frames, "scene.xmf2", "XdmfReader")
+        check_xmf(h5, os.path.join(tmp, "xmf2.npz"), frames, "scene.xmf2", "XdmfReader", alone=True)
 
         # .xmf: the Xdmf3 dialect, for OpenDataFile's choice (Xdmf3ReaderS); the .h5 by absolute path
         run([SWARMSIM, "export", "scene.h5", "--format", "xdmf", "-o", "scene.xmf"], cwd=tmp)
