@@ -124,6 +124,19 @@ Ply readPly(const std::string& path) {
   return p;
 }
 
+// a shipped scenario with its mesh copied to `meshDir` (a folder of `dir`) and its path rewritten to
+// `meshPath`, written to `dir`/`scenarioName`
+void copyScenarioWithMesh(const TempDir& dir, const std::string& scenario, const std::string& shippedMesh,
+                          const std::string& meshDir, const std::string& meshPath, const std::string& scenarioName) {
+  fs::create_directories(dir.path() / meshDir);
+  fs::copy_file(kSourceTree + "/data/" + shippedMesh, dir.path() / meshDir / fs::path(meshPath).filename());
+  std::string text = readText(scenario);
+  const std::string from = (scenario == kScene ? "../../data/" : "../data/") + shippedMesh;
+  REQUIRE(text.find(from) != std::string::npos);
+  text.replace(text.find(from), from.size(), meshPath);
+  writeText(dir.file(scenarioName), text);
+}
+
 }  // namespace
 
 TEST_CASE("Scene: tessellated spheres and boxes are closed, face outwards and lie on the shape", "[scene]") {
@@ -182,22 +195,19 @@ TEST_CASE("Scene: the output holds every obstacle in world space and the mesh fi
 TEST_CASE("run --from re-runs the stored scenario bit-identically, without its mesh files, from anywhere",
           "[scene][cli]") {
   TempDir dir;
-  fs::create_directories(dir.path() / "project" / "meshes");
-  fs::copy_file(kSourceTree + "/data/street_lamp.obj", dir.path() / "project" / "meshes" / "lamp.obj");
-  std::string scenario = readText(kScene);
-  const std::string from = "../../data/street_lamp.obj";
-  scenario.replace(scenario.find(from), from.size(), "meshes/lamp.obj");
-  // a field swarm, which steers around the lamp: the mesh matters to the result
-  writeText(dir.file("project/s.json"), scenario);
+  // the field model steers around the blocks: the mesh matters to every position
+  copyScenarioWithMesh(dir, kSourceTree + "/scenarios/two_blocks.json", "blocks.obj", "project/meshes",
+                       "meshes/blocks.obj", "project/s.json");
   REQUIRE(runSwarmsim("run project/s.json -o first.h5 --quiet --frames 8", dir.path()).exitCode == 0);
   fs::remove_all(dir.path() / "project");  // the scenario and its mesh are gone
   fs::create_directories(dir.path() / "elsewhere");
   const auto r = runSwarmsim("run --from ../first.h5 -o again.h5 --quiet", dir.path() / "elsewhere");
   INFO(r.err);
   REQUIRE(r.exitCode == 0);
+  const TrajectoryInfo info = readTrajectoryInfo(dir.file("first.h5"));
   for (const char* q : {"position", "velocity"}) {
-    for (const char* s : {"midges", "gnats"}) {
-      const std::string ds = std::string("swarms/") + s + "/" + q;
+    for (const auto& s : info.swarms) {
+      const std::string ds = "swarms/" + s.name + "/" + q;
       CHECK(readFloatDataset(dir.file("first.h5"), ds) == readFloatDataset(dir.file("elsewhere/again.h5"), ds));
     }
   }
@@ -222,12 +232,7 @@ TEST_CASE("run --from re-runs the stored scenario bit-identically, without its m
 TEST_CASE("run - reads the scenario from standard input, relative paths resolve against the working folder",
           "[scene][cli]") {
   TempDir dir;
-  fs::create_directories(dir.path() / "work" / "data");
-  fs::copy_file(kSourceTree + "/data/street_lamp.obj", dir.path() / "work" / "data" / "lamp.obj");
-  std::string scenario = readText(kScene);
-  const std::string from = "../../data/street_lamp.obj";
-  scenario.replace(scenario.find(from), from.size(), "data/lamp.obj");
-  writeText(dir.file("s.json"), scenario);
+  copyScenarioWithMesh(dir, kScene, "street_lamp.obj", "work/data", "data/lamp.obj", "s.json");
   const std::string cmd = "cd " + shellQuote(dir.file("work")) + " && " + shellQuote(kSwarmsimExe) +
                           " run - -o piped.h5 --frames 4 --json < ../s.json";
   const auto r = runCommand("sh -c " + shellQuote(cmd), dir.path());
@@ -244,6 +249,7 @@ TEST_CASE("run - reads the scenario from standard input, relative paths resolve 
   const TrajectoryInfo info = readTrajectoryInfo(dir.file("work/piped.h5"));
   CHECK(info.scenarioName == "scene");
   CHECK(nlohmann::json::parse(info.scenarioJson)["obstacles"][0]["file"] == dir.file("work/data/lamp.obj"));
+  CHECK(readScene(dir.file("work/piped.h5")).at(0).vertices.size() == 16 * 3);
   // an error in piped JSON names <stdin> and its line
   const auto bad = runCommand("sh -c " + shellQuote("echo '{\"dt\": 0.1,' | " + shellQuote(kSwarmsimExe) +
                                                      " run - -o x.h5"),
