@@ -357,6 +357,38 @@ TEST_CASE("export csv: one row per agent and frame, values that read back exactl
   CHECK(runSwarmsim("export nothere.h5 --format csv", dir.path()).exitCode == 2);
 }
 
+TEST_CASE("export csv: rows formatted in parallel blocks are the serial text, in agent order", "[export]") {
+  // 70,150 agents: two blocks of the first swarm (65,536 agents each), each split across the threads
+  TempDir dir;
+  REQUIRE(runSwarmsim("run " + shellQuote(kScene) + " -o s.h5 --quiet --frames 2 --set 'swarms[0].count=70000'",
+                      dir.path()).exitCode == 0);
+  const auto one = runCommand("cd " + shellQuote(dir.path().string()) + " && OMP_NUM_THREADS=1 " +
+                                  shellQuote(kSwarmsimExe) + " export s.h5 --format csv -o -",
+                              dir.path());
+  const auto two = runCommand("cd " + shellQuote(dir.path().string()) + " && OMP_NUM_THREADS=2 " +
+                                  shellQuote(kSwarmsimExe) + " export s.h5 --format csv -o -",
+                              dir.path());
+  REQUIRE(one.exitCode == 0);
+  REQUIRE(two.exitCode == 0);
+  CHECK(one.out == two.out);
+  std::string header;
+  const std::vector<CsvRow> rows = parseCsv(two.out, header);
+  REQUIRE(rows.size() == 2u * 70150u);  // frames 0 and 1
+  const std::vector<float> pos = readFloatDataset(dir.file("s.h5"), "swarms/midges/position");
+  for (std::size_t k = 0; k < rows.size(); ++k) {  // each frame: the midges in id order, then the gnats
+    const std::size_t f = k / 70150, a = k % 70150;
+    REQUIRE(rows[k].frame == static_cast<long long>(f));
+    if (a < 70000) {
+      REQUIRE(rows[k].swarm == "midges");
+      REQUIRE(rows[k].id == a);
+      REQUIRE(rows[k].v[0] == pos[3 * (70000 * f + a)]);
+    } else {
+      REQUIRE(rows[k].swarm == "gnats");
+      REQUIRE(rows[k].id == a - 70000);
+    }
+  }
+}
+
 TEST_CASE("export csv leaves absent agents out, ply files hold only the present ones", "[export]") {
   TempDir dir;
   const auto r = runSwarmsim("run " + shellQuote(kSourceTree + "/scenarios/fastswarm_mixing.json") +
