@@ -1,0 +1,80 @@
+#!/usr/bin/python3
+"""pvbatch renders frames of an XDMF export with scripts/paraview_render.py (docs/tools.md#paraview).
+
+A two-swarm run with three obstacles (tests/data/scene.json) is exported as .xmf2 and two frames are
+rendered by ParaView's pvbatch under Xvfb: one PNG per frame, named by the HDF5 frame number, of the asked
+size; each shows both swarms in their own colours (the two first colours of the script's palette) and the
+grey obstacles, and the two frames differ (the insects moved). A range that selects no frame and an output
+name without a frame field for several frames are exit 2. Exit 77 (skipped) without pvbatch or xvfb-run.
+"""
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+
+import matplotlib.image
+import numpy as np
+
+SWARMSIM = os.environ.get("SWARMSIM", "swarmsim")
+SRC = os.environ.get("SWARMSIM_SOURCE_DIR", os.path.join(os.path.dirname(__file__), "..", ".."))
+SCRIPT = os.path.join(SRC, "scripts", "paraview_render.py")
+BLUE, ORANGE = (0.12, 0.47, 0.71), (1.0, 0.50, 0.05)
+
+
+def fail(msg):
+    print("FAIL: " + msg)
+    sys.exit(1)
+
+
+def run(cmd, cwd, expect=0):
+    p = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, timeout=240)
+    if p.returncode != expect:
+        fail("%s exited %d (expected %d):\n%s%s" % (" ".join(cmd), p.returncode, expect, p.stdout, p.stderr[-3000:]))
+    return p
+
+
+def near(img, rgb, tol=0.12):
+    """pixels within tol of a colour on every channel (points rendered as spheres are shaded: a loose match)"""
+    return int(np.count_nonzero(np.all(np.abs(img[:, :, :3] - np.array(rgb)) < tol, axis=2)))
+
+
+def main():
+    for tool in ("pvbatch", "xvfb-run"):
+        if shutil.which(tool) is None:
+            print("SKIP: %s not installed (Debian packages paraview, xvfb, xauth; scripts/setup.sh --tools)" % tool)
+            sys.exit(77)
+    tmp = tempfile.mkdtemp(prefix="swarmsim-pvrender-")
+    try:
+        run([SWARMSIM, "run", os.path.join(SRC, "tests/data/scene.json"), "-o", "scene.h5", "--quiet"], tmp)
+        run([SWARMSIM, "export", "scene.h5", "--format", "xdmf"], tmp)
+        pv = ["xvfb-run", "-a", "-s", "-screen 0 1280x1024x24", "pvbatch", SCRIPT, "scene.xmf2"]
+        run(pv + ["-o", "frames/scene.%04d.png", "--frames", "10:12", "--size", "480", "320", "--point-size", "4"],
+            tmp)
+        names = sorted(os.listdir(os.path.join(tmp, "frames")))
+        if names != ["scene.0010.png", "scene.0011.png"]:
+            fail("expected scene.0010.png and scene.0011.png, got %s" % names)
+        counts = []
+        imgs = [matplotlib.image.imread(os.path.join(tmp, "frames", n)) for n in names]
+        for n, img in zip(names, imgs):
+            if img.shape[:2] != (320, 480):
+                fail("%s is %dx%d, expected 480x320" % (n, img.shape[1], img.shape[0]))
+            blue, orange = near(img, BLUE), near(img, ORANGE)
+            grey = int(np.count_nonzero((np.ptp(img[:, :, :3], axis=2) < 0.03) & (img[:, :, 0] > 0.4) &
+                                        (img[:, :, 0] < 0.85)))
+            if blue < 50 or orange < 20 or grey < 2000:
+                fail("%s: %d pixels of the first swarm's colour, %d of the second's, %d grey (obstacles); "
+                     "expected at least 50, 20 and 2000" % (n, blue, orange, grey))
+            counts.append((blue, orange, grey))
+        if np.array_equal(imgs[0], imgs[1]):
+            fail("frames 10 and 11 are the same image: nothing moved")
+        run(pv + ["-o", "none.%04d.png", "--frames", "30:40"], tmp, expect=2)
+        run(pv + ["-o", "one.png", "--frames", "3:5"], tmp, expect=2)
+        print("ok: pvbatch rendered frames 10 and 11 with both swarms and the obstacles (pixels blue, orange, grey: %s)"
+              % counts)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()
