@@ -148,13 +148,23 @@ int main(int argc, char** argv) {
 
   // evaluate
   eval::EvaluateOptions evalOpt;
-  std::string evalFrames;
-  CLI::App* evaluate =
-      app.add_subcommand("evaluate", "Score a simulation against reference tracks (wang2015 metrics; HDF5 or CSV)");
+  std::string evalFrames, evalSimFrames, evalRefFrames;
+  CLI::App* evaluate = app.add_subcommand(
+      "evaluate", "Score a simulation against reference tracks (physical score and wang2015's E; HDF5 or CSV)");
   evaluate->add_option("sim", evalOpt.sim, "Simulation: swarmsim HDF5 output or tracks CSV")->required();
   evaluate->add_option("--reference", evalOpt.reference, "Reference: HDF5 output or tracks CSV")->required();
   evaluate->add_option("--swarm", evalOpt.source.swarm, "Swarm of an HDF5 file (default: the only one)");
-  evaluate->add_option("--frames", evalFrames, "Samples A:B (half-open, either side optional)")->type_name("A:B");
+  evaluate->add_option("--frames", evalFrames, "Samples A:B of both files (half-open, either side optional)")
+      ->type_name("A:B");
+  evaluate->add_option("--sim-frames", evalSimFrames, "Samples A:B of SIM only (over --frames)")->type_name("A:B");
+  evaluate->add_option("--ref-frames", evalRefFrames, "Samples A:B of the reference only (over --frames)")
+      ->type_name("A:B");
+  evaluate->add_option("--bootstrap", evalOpt.bootstrap, "Bootstrap replicates for the intervals (0: none)")
+      ->check(CLI::Range(0, 100000));
+  evaluate->add_option("--blocks", evalOpt.blocks, "Time blocks of the block bootstrap")->check(CLI::Range(1, 100000));
+  evaluate->add_option("--seed", evalOpt.seed, "Seed of the bootstrap and the baseline");
+  evaluate->add_flag("--baseline", evalOpt.baseline,
+                     "Also score Ornstein-Uhlenbeck walkers matched to the reference (where noise lands)");
   evaluate->add_flag("--json", evalOpt.json, "Print JSON");
   evaluate->add_option("--bins", evalOpt.bins, "Z-score bins of the PDFs")->check(CLI::Range(2, 1000000));
   evaluate->add_option("--sim-scale", evalOpt.simScale, "Multiply SIM positions and velocities by F")
@@ -348,7 +358,9 @@ int main(int argc, char** argv) {
     }
     if (*evaluate) {
       if (!evalFrames.empty()) evalOpt.source.frames = eval::FrameRange::parse(evalFrames);
-      eval::runEvaluate(evalOpt, std::cout);
+      if (!evalSimFrames.empty()) evalOpt.simFrames = eval::FrameRange::parse(evalSimFrames);
+      if (!evalRefFrames.empty()) evalOpt.refFrames = eval::FrameRange::parse(evalRefFrames);
+      eval::runEvaluate(evalOpt, std::cout, std::cerr);
       return kExitOk;
     }
   } catch (const Error& e) {

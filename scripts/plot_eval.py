@@ -186,6 +186,8 @@ def validate(doc, name):
         where = "%s: metrics[%d]" % (name, i)
         if not isinstance(m, dict):
             raise PlotError("%s: must be an object" % where)
+        if m.get("paper") is False:
+            continue  # a collective metric of the physical score: no z-score PDF to draw
         key = m.get("name")
         key = ALIASES.get(key, key) if isinstance(key, str) else key
         if key not in METRICS:

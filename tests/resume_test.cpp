@@ -159,7 +159,8 @@ TEST_CASE("Resume of compressed output after SIGKILL is byte-identical", "[resum
 TEST_CASE("Resume refuses another scenario and explains leftovers", "[resume]") {
   TempDir dir;
   const Child c = swarmsim_test::spawnChild(runArgs({"--checkpoint-every", "0"}), dir.path(), "a");
-  REQUIRE(swarmsim_test::waitForFile(dir.file(".out.h5.ckpt"), c.pid, 30000));
+  // sanitized and on a busy machine, start-up can take long
+  REQUIRE(swarmsim_test::waitForFile(dir.file(".out.h5.ckpt"), c.pid, 120000));
   usleep(300000);
   kill(c.pid, SIGKILL);
   swarmsim_test::waitChild(c.pid, 30000);
@@ -204,7 +205,7 @@ TEST_CASE("SIGTERM is answered within a second even when a frame takes longer", 
   // 2,000 steps per frame: a frame takes several seconds
   const Child c = swarmsim_test::spawnChild(
       {kExe, "run", kMulti, "-o", "out.h5", "--set", "steps_per_frame=2000", "--frames", "3"}, dir.path(), "t");
-  REQUIRE(swarmsim_test::waitForFile(dir.file(".out.h5.ckpt"), c.pid, 30000));  // frame 0 written
+  REQUIRE(swarmsim_test::waitForFile(dir.file(".out.h5.ckpt"), c.pid, 120000));  // frame 0 written
   usleep(500000);
   const auto t0 = std::chrono::steady_clock::now();
   kill(c.pid, SIGTERM);
@@ -229,7 +230,7 @@ TEST_CASE("SIGUSR1 writes a checkpoint and the run goes on", "[resume]") {
   TempDir dir;
   const Child c = swarmsim_test::spawnChild(
       {kExe, "run", kMulti, "-o", "out.h5", "--set", "steps_per_frame=400", "--frames", "3"}, dir.path(), "u");
-  REQUIRE(swarmsim_test::waitForFile(dir.file(".out.h5.ckpt"), c.pid, 30000));
+  REQUIRE(swarmsim_test::waitForFile(dir.file(".out.h5.ckpt"), c.pid, 120000));
   const swarmsim::Checkpoint first = swarmsim::readCheckpoint(dir.file(".out.h5.ckpt"));
   CHECK(first.step == 0);
   usleep(300000);

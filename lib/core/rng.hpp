@@ -19,6 +19,7 @@ enum class RngPurpose : std::uint32_t {
   kPhototaxis = 5,
   kEscape = 6,
   kSurfaceSample = 7,  // shape model: stratified samples of a target mesh
+  kBaseline = 8,       // eval: the Ornstein-Uhlenbeck baseline swarm (eval/baseline.hpp)
 };
 
 namespace detail {

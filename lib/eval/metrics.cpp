@@ -11,12 +11,14 @@
 namespace swarmsim::eval {
 
 const char* metricName(int m) {
-  static const char* const names[kMetricCount] = {"v", "a", "omega", "alpha", "jerk", "d", "eta"};
+  static const char* const names[kMetricCount] = {"v", "a", "omega", "alpha", "jerk", "d", "eta",
+                                                  "pol", "mill", "r_c", "d_rel"};
   return names[m];
 }
 
 const char* metricUnit(int m) {
-  static const char* const units[kMetricCount] = {"m/s", "m/s^2", "rad/s", "rad/s^2", "m/s^3", "m", "1/s"};
+  static const char* const units[kMetricCount] = {"m/s", "m/s^2", "rad/s", "rad/s^2", "m/s^3", "m", "1/s",
+                                                  "1",   "1",     "m",     "1"};
   return units[m];
 }
 
@@ -107,7 +109,51 @@ void nearestNeighbours(const Frame& f, std::vector<std::ptrdiff_t>& nn, std::vec
 
 }  // namespace
 
-void computeMetrics(TrackSource& source, double scale, const std::function<void(const FrameValues&)>& sink) {
+// pol, mill (one value each, appended to out) and r_c, d_rel (per row into perRow) of frame f
+void collective(const Frame& f, const std::vector<double>& v, const std::vector<double>& nnDist,
+                std::array<std::vector<double>, kMetricCount>& perRow, FrameValues& out) {
+  const std::size_t n = f.size();
+  if (n < 2) return;
+  const double* p = f.pos.data();
+  double c[3] = {0, 0, 0};
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t d = 0; d < 3; ++d) c[d] += p[3 * i + d];
+  }
+  for (double& x : c) x /= static_cast<double>(n);
+  double rg2 = 0, dir[3] = {0, 0, 0}, l[3] = {0, 0, 0}, lnorm = 0;
+  std::size_t moving = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double r[3] = {p[3 * i] - c[0], p[3 * i + 1] - c[1], p[3 * i + 2] - c[2]};
+    const double rn = norm3(r);
+    rg2 += rn * rn;
+    perRow[kCentreDistance][i] = rn;
+    const double* vi = &v[3 * i];
+    if (std::isnan(vi[0])) continue;
+    const double s = norm3(vi);
+    if (s == 0.0) continue;
+    ++moving;
+    for (std::size_t d = 0; d < 3; ++d) dir[d] += vi[d] / s;
+    l[0] += r[1] * vi[2] - r[2] * vi[1];
+    l[1] += r[2] * vi[0] - r[0] * vi[2];
+    l[2] += r[0] * vi[1] - r[1] * vi[0];
+    lnorm += rn * s;
+  }
+  if (n >= 3) {
+    const double spacing = std::sqrt(rg2 / static_cast<double>(n)) / std::cbrt(static_cast<double>(n));
+    if (spacing > 0.0) {
+      for (std::size_t i = 0; i < n; ++i) {
+        if (!std::isnan(nnDist[i])) perRow[kRelNnDistance][i] = nnDist[i] / spacing;
+      }
+    }
+  }
+  if (moving >= 3) {
+    out[kPolarisation].push_back(norm3(dir) / static_cast<double>(moving));
+    if (lnorm > 0.0) out[kMilling].push_back(norm3(l) / lnorm);
+  }
+}
+
+void computeMetrics(TrackSource& source, double scale,
+                    const std::function<void(const FrameValues&, const SampleView&)>& sink) {
   const TrackInfo& info = source.info();
   const double dt = info.dt;
   const bool derived = !info.hasVelocity;
@@ -210,14 +256,16 @@ void computeMetrics(TrackSource& source, double scale, const std::function<void(
           }
         }
       });
+      for (auto& o : out) o.clear();
+      collective(f, c->v, nnDist, perRow, out);
       for (int m = 0; m < kMetricCount; ++m) {
+        if (m == kPolarisation || m == kMilling) continue;
         auto& o = out[static_cast<std::size_t>(m)];
-        o.clear();
         for (double x : perRow[static_cast<std::size_t>(m)]) {
           if (!std::isnan(x)) o.push_back(x);
         }
       }
-      sink(out);
+      sink(out, SampleView{f.sample, &f, &c->v});
     }
   }
 }

@@ -30,6 +30,19 @@
 //                                       (ties: the lower id); needs v_i and v_nn at
 //                                       sample k; not produced when d = 0
 //
+// Collective metrics (issue 13; not part of wang2015's E), per sample k over the individuals present at k,
+// with c the centroid of their positions and R_g = sqrt(mean |x_i - c|^2) (the radius of gyration):
+//   pol    polarisation, 1:     |sum_i v_i / |v_i|| / n over the individuals with a velocity and |v_i| > 0;
+//                               one value per sample, needs n >= 3 such individuals
+//   mill   milling, 1:          |sum_i (x_i - c) x v_i| / sum_i |x_i - c| |v_i| (normalised angular
+//                               momentum about the centroid); one value per sample, n >= 3 as for pol
+//   r_c    distance to the centre, m:  |x_i - c| per individual; needs n >= 2 present
+//   d_rel  nearest-neighbour distance at the swarm's density, 1:  d_i / l with l = R_g n^(-1/3) the
+//                               length per individual of the sample; per individual, needs n >= 3
+// pol is 1 for a group translating rigidly, mill is 1 for a group turning rigidly about its centroid, both
+// are about n^(-1/2) for independent directions. d_rel compares spacing at equal density: a swarm scaled
+// in size, or with more individuals at the same spacing, keeps its d_rel distribution.
+//
 // Hence with recorded velocities v, a, omega, jerk need samples k-1..k+1 and
 // alpha k-2..k+2; without them v needs k-1..k+1, a, omega and jerk k-2..k+2 and
 // alpha k-3..k+3. On a circle of radius R flown at speed s, sampled at dt
@@ -51,17 +64,31 @@
 
 namespace swarmsim::eval {
 
-enum Metric : int { kSpeed = 0, kAccel, kOmega, kAlpha, kJerk, kNnDistance, kEta, kMetricCount };
+enum Metric : int {
+  kSpeed = 0, kAccel, kOmega, kAlpha, kJerk, kNnDistance, kEta,  // wang2015's seven
+  kPolarisation, kMilling, kCentreDistance, kRelNnDistance,      // collective
+  kMetricCount
+};
+inline constexpr int kPaperMetricCount = 7;  // the first seven: wang2015's E uses these only
 
-const char* metricName(int m);  // "v", "a", "omega", "alpha", "jerk", "d", "eta"
-const char* metricUnit(int m);  // "m/s", "m/s^2", "rad/s", "rad/s^2", "m/s^3", "m", "1/s"
+const char* metricName(int m);  // "v", "a", "omega", "alpha", "jerk", "d", "eta", "pol", "mill", "r_c", "d_rel"
+const char* metricUnit(int m);  // "m/s", "m/s^2", "rad/s", "rad/s^2", "m/s^3", "m", "1/s", "1", "1", "m", "1"
 
 // the values of one sample k: for each metric, the values of the individuals
-// present at k for which it is defined, in id order
+// present at k for which it is defined, in id order (pol and mill: at most one)
 using FrameValues = std::array<std::vector<double>, kMetricCount>;
+
+// sample k itself, for what needs more than the values (correlations.hpp): the individuals present and
+// their velocities (3 per row, recorded or derived; NaN where not available), already scaled
+struct SampleView {
+  std::int64_t sample = 0;
+  const Frame* frame = nullptr;
+  const std::vector<double>* velocity = nullptr;
+};
 
 // one pass over the source's samples [first, last), calling `sink` once per
 // sample in increasing order; positions and velocities are multiplied by `scale`
-void computeMetrics(TrackSource& source, double scale, const std::function<void(const FrameValues&)>& sink);
+void computeMetrics(TrackSource& source, double scale,
+                    const std::function<void(const FrameValues&, const SampleView&)>& sink);
 
 }  // namespace swarmsim::eval

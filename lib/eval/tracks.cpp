@@ -330,7 +330,21 @@ class CsvSource : public TrackSource {
     }
     const std::size_t mid = (steps.size() - 1) / 2;
     std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(mid), steps.end());
-    info_.dt = steps[mid];
+    const double dt0 = steps[mid];
+    // refined: the mean of the single steps (within 25 % of the median). Times rounded to a few decimals
+    // (60 fps written as 0.0167, 0.0333, 0.05, ...) give steps that differ from the true interval by the
+    // rounding, and the median is then off by up to half a unit of the last decimal, which piles up to a
+    // whole sample over a long track; consecutive steps' rounding errors cancel in the mean.
+    double sum = 0;
+    std::size_t count = 0;
+    for (double st : steps) {
+      if (std::abs(st / dt0 - 1.0) < 0.25) {
+        sum += st;
+        ++count;
+      }
+    }
+    const double mean = count > 0 ? sum / static_cast<double>(count) : dt0;
+    info_.dt = std::abs(mean - dt0) > 1e-6 * dt0 ? mean : dt0;  // dt0 unless it is really off
     std::int64_t maxSample = 0;
     for (auto& r : rows_) {
       r.sample = std::llround((r.t - t0) / info_.dt);

@@ -6,9 +6,11 @@
 // Time grid
 //   HDF5: sample k = frame k; dt = the root attribute frame_dt (or
 //         /time[1] - /time[0] when frame_dt is missing or not positive).
-//   CSV:  dt = the median positive time step between consecutive rows of the
+//   CSV:  dt0 = the median positive time step between consecutive rows of the
 //         same track (rows ordered by time within each id; for an even number
-//         of steps the lower of the two middle steps); t0 = the smallest time;
+//         of steps the lower of the two middle steps); dt = the mean m of the steps
+//         within 25 % of dt0 when |m - dt0| > 1e-6 dt0, else dt0 (so times rounded to a few decimals, e.g. 60 fps
+//         written with 4 decimals, still give the true interval); t0 = the smallest time;
 //         sample index = round((t - t0) / dt). Two rows of one id that round
 //         to the same sample are an error naming both lines.
 // Frame range (--frames A:B): python-like half-open range of sample indices,
