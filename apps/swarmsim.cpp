@@ -1,11 +1,12 @@
 // swarmsim: command-line batch simulator of flying insect swarms.
-// Subcommands: run, validate, info, bench, evaluate. Exit codes: see core/error.hpp.
+// Subcommands: run, validate, info, bench, evaluate, reference, export, fit. Exit codes: see core/error.hpp.
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <hdf5.h>
 #include <cerrno>
 #include <cstdio>
+#include <filesystem>
 #include <cstdlib>
 #include <iostream>
 #include <sstream>
@@ -13,6 +14,7 @@
 #include "bench.hpp"
 #include "core/error.hpp"
 #include "core/parallel.hpp"
+#include "fit/fit.hpp"
 #include "core/threads.hpp"
 #include "eval/score.hpp"
 #include "io/export.hpp"
@@ -149,6 +151,13 @@ int main(int argc, char** argv) {
   // evaluate
   eval::EvaluateOptions evalOpt;
   std::string evalFrames, evalSimFrames, evalRefFrames;
+  const CLI::Validator kSeedCheck(
+      [](std::string& v) {
+        return v.empty() || v.find_first_not_of("0123456789") != std::string::npos
+                   ? std::string("expected a whole number of 0 or more, got \"") + v + "\""
+                   : std::string();
+      },
+      "SEED");
   CLI::App* evaluate = app.add_subcommand(
       "evaluate", "Score a simulation against reference tracks (physical score and wang2015's E; HDF5 or CSV)");
   evaluate->add_option("sim", evalOpt.sim, "Simulation: swarmsim HDF5 output or tracks CSV")->required();
@@ -162,7 +171,8 @@ int main(int argc, char** argv) {
   evaluate->add_option("--bootstrap", evalOpt.bootstrap, "Bootstrap replicates for the intervals (0: none)")
       ->check(CLI::Range(0, 100000));
   evaluate->add_option("--blocks", evalOpt.blocks, "Time blocks of the block bootstrap")->check(CLI::Range(1, 100000));
-  evaluate->add_option("--seed", evalOpt.seed, "Seed of the bootstrap and the baseline");
+  evaluate->add_option("--seed", evalOpt.seed, "Seed of the bootstrap and the baseline (0 or more)")
+      ->check(kSeedCheck);
   evaluate->add_flag("--baseline", evalOpt.baseline,
                      "Also score Ornstein-Uhlenbeck walkers matched to the reference (where noise lands)");
   evaluate->add_flag("--json", evalOpt.json, "Print JSON");
@@ -172,6 +182,43 @@ int main(int argc, char** argv) {
   evaluate->add_option("--delimiter", evalOpt.source.csv.delimiter, "CSV delimiter: , ; or tab (default: detect)");
   evaluate->add_option("--columns", evalOpt.source.csv.columns, "CSV columns, e.g. id=object,time=t,x=X,...")
       ->type_name("KEY=NAME,...");
+
+  // fit: tune scenario values against real tracks (pagmo's pso_gen over the physical score)
+  fit::FitOptions fitOpt;
+  std::vector<std::string> fitParams;
+  std::string fitSimFrames, fitRefFrames, fitValidateFrames;
+  CLI::App* fitCmd = app.add_subcommand(
+      "fit", "Fit a scenario's numeric values to real tracks (maximise evaluate's physical score; pagmo2)");
+  fitCmd->add_option("scenario", fitOpt.scenario, "Scenario JSON file")->required();
+  fitCmd->add_option("--reference", fitOpt.reference, "Real tracks to fit to (CSV or HDF5, as for evaluate)")->required();
+  fitCmd->add_option("--param", fitParams, "A value to fit and its range, PATH=LO:HI (paths as for --set); repeatable")
+      ->required()
+      ->type_name("PATH=LO:HI");
+  fitCmd->add_option("-o,--output", fitOpt.output, "The best scenario (JSON)")->required();
+  fitCmd->add_option("--log", fitOpt.log, "Every candidate as JSON lines (values, scores, intervals)");
+  fitCmd->add_option("--validate", fitOpt.validate, "Score the best candidate on these tracks too (never fitted to)");
+  fitCmd->add_option("--budget", fitOpt.budget, "Candidates to evaluate (default 40)")->check(CLI::Range(1, 1000000));
+  fitCmd->add_option("--population", fitOpt.population, "Candidates per generation (default 8)")
+      ->check(CLI::Range(2, 100000));
+  fitCmd->add_option("--seeds", fitOpt.seeds, "Runs per candidate with seeds seed..seed+K-1, scores averaged (default 1)")
+      ->check(CLI::Range(1, 1000));
+  fitCmd->add_option("--seed", fitOpt.seed, "Seed of the optimiser (and of the bootstraps and baselines; 0 or more)")
+      ->check(kSeedCheck);
+  fitCmd->add_option("--jobs", fitOpt.jobs, "Runs at a time (default: the CPUs, one thread each)")
+      ->check(CLI::Range(1, 1024));
+  fitCmd->add_option("--frames", fitOpt.frames, "Frames per run (default: the scenario's)")->check(CLI::Range(1, 100000000));
+  fitCmd->add_option("--set", fitOpt.sets, "A fixed override for every run (as for run)")->type_name("PATH=VALUE");
+  fitCmd->add_option("--swarm", fitOpt.eval.source.swarm, "The swarm to score (default: the only one)");
+  fitCmd->add_option("--sim-frames", fitSimFrames, "Samples A:B of each run to score (e.g. 100: skips a warm-up)")
+      ->type_name("A:B");
+  fitCmd->add_option("--ref-frames", fitRefFrames, "Samples A:B of the reference (and of --validate by default)")
+      ->type_name("A:B");
+  fitCmd->add_option("--validate-frames", fitValidateFrames, "Samples A:B of the --validate tracks")->type_name("A:B");
+  fitCmd->add_option("--sim-scale", fitOpt.eval.simScale, "Multiply the runs' positions and velocities by F")
+      ->check(CLI::PositiveNumber);
+  fitCmd->add_option("--bootstrap", fitOpt.eval.bootstrap, "Bootstrap replicates per score (default 200; 0: none)")
+      ->check(CLI::Range(0, 100000));
+  fitCmd->add_flag("--force", fitOpt.force, "Replace existing output and log files");
 
   // reference: FASTSWARM's (v, a) samples from real tracks
   CLI::App* reference = app.add_subcommand("reference", "Build or describe a FASTSWARM reference of real (v, a) samples");
@@ -355,6 +402,17 @@ int main(int argc, char** argv) {
                      static_cast<long long>(r.files), r.files == 1 ? "" : "s", r.where.c_str());
       }
       return kExitOk;
+    }
+    if (*fitCmd) {
+      for (const std::string& p : fitParams) fitOpt.params.push_back(fit::ParamRange::parse(p));
+      if (!fitSimFrames.empty()) fitOpt.eval.simFrames = eval::FrameRange::parse(fitSimFrames);
+      if (!fitRefFrames.empty()) fitOpt.eval.refFrames = eval::FrameRange::parse(fitRefFrames);
+      if (!fitValidateFrames.empty()) fitOpt.validateFrames = eval::FrameRange::parse(fitValidateFrames);
+      fitOpt.eval.seed = fitOpt.seed;
+      std::error_code ec;
+      fitOpt.exe = std::filesystem::read_symlink("/proc/self/exe", ec).string();
+      if (ec || fitOpt.exe.empty()) fitOpt.exe = argv[0];
+      return fit::runFit(fitOpt, std::cout, std::cerr);
     }
     if (*evaluate) {
       if (!evalFrames.empty()) evalOpt.source.frames = eval::FrameRange::parse(evalFrames);

@@ -271,6 +271,12 @@ TEST_CASE("fastswarm: bad parameters are exit 2 with the JSON path", "[fastswarm
     CHECK(r.exitCode == 2);
     CHECK_THAT(r.err, Contains(c.message));
   }
+  // d_att1 equal to d_att2 is allowed, also for values that are not exact in binary (0.3)
+  const auto equal = runSwarmsim("validate " + shellQuote(kScenario) +
+                                     " --set 'swarms[0].params.d_att1=0.3' --set 'swarms[0].params.d_att2=0.3'",
+                                 dir.path());
+  INFO(equal.err);
+  CHECK(equal.exitCode == 0);
 }
 
 TEST_CASE("fastswarm: keypoint tasks visit the keypoints in order, both ways round, and turn at open ends",

@@ -233,7 +233,7 @@ void commonGrid(std::unique_ptr<TrackSource>& sim, std::unique_ptr<TrackSource>&
     std::snprintf(buf, sizeof buf,
                   "the time steps differ and are not integer multiples: %s has dt %.9g s, %s has dt %.9g s "
                   "(metrics such as acceleration depend on the step; write the simulation at the reference's "
-                  "interval, e.g. with the scenario's output.every, or resample one of them)",
+                  "interval, e.g. with the scenario's dt and steps_per_frame, or resample one of them)",
                   sim->info().file.c_str(), a, ref->info().file.c_str(), b);
     throw InputError(buf);
   }
@@ -634,6 +634,10 @@ EvaluationResult evaluate(const EvaluateOptions& options) {
     for (std::size_t d = 0; d < 3; ++d) spec.centre[d] = stats.centre[d];
     spec.extent = stats.extent;
     spec.seed = options.seed;
+    if (!(spec.extent > 0) || !(spec.medianSpeed > 0)) {
+      throw InputError(options.reference + ": --baseline needs a reference with at least two moving individuals per "
+                       "sample (its spread about the centre and its median speed match the walkers to it)");
+    }
     char buf[512];
     std::snprintf(buf, sizeof buf,
                   "Ornstein-Uhlenbeck walkers: %lld individuals, %lld samples at dt %g s, median speed %.4g m/s, "
@@ -645,6 +649,8 @@ EvaluationResult evaluate(const EvaluateOptions& options) {
         makeOuBaseline(spec), 1.0, openTracks(options.reference, sideOptions(options.source, options.refFrames)),
         options, nullptr);
     r.baseline = b.summary;
+    for (const MetricResult& m : b.metrics) r.baselineScores[m.name] = {m.scored, m.score, m.scoreCi};
+    for (const CurveResult& c : b.curves) r.baselineScores[c.name] = {c.scored, c.score, c.scoreCi};
   }
   return r;
 }
@@ -690,7 +696,7 @@ nlohmann::json EvaluationResult::toJson() const {
                     {"blocks_sim", blocksSim},
                     {"blocks_ref", blocksRef},
                     {"seed", seed},
-                    {"interval", "basic bootstrap, 95 %"}};
+                    {"interval", replicates > 0 ? "basic bootstrap, 95 %" : "none"}};
   j["metrics"] = nlohmann::json::array();
   for (const auto& m : metrics) {
     nlohmann::json e = {{"name", m.name},
@@ -730,6 +736,11 @@ nlohmann::json EvaluationResult::toJson() const {
   if (baseline) {
     j["baseline"] = summaryJson(*baseline);
     j["baseline"]["model"] = baselineDescription;
+    nlohmann::json scores = nlohmann::json::object();
+    for (const auto& [name, v] : baselineScores) {
+      scores[name] = {{"score", v.scored ? num(v.score) : nlohmann::json(nullptr)}, {"score_ci", ci(v.ci)}};
+    }
+    j["baseline"]["scores"] = scores;
   }
   j["warnings"] = warnings;
   return j;

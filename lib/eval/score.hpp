@@ -64,6 +64,7 @@
 // so every report shows where plain noise lands.
 #include <cstdint>
 #include <nlohmann/json.hpp>
+#include <map>
 #include <optional>
 #include <ostream>
 #include <string>
@@ -139,6 +140,12 @@ struct EvaluationResult {
   std::vector<std::string> warnings;
   std::optional<ScoreSummary> baseline;  // --baseline
   std::string baselineDescription;
+  struct TermScore {
+    bool scored = false;
+    double score = 0;
+    Interval ci;
+  };
+  std::map<std::string, TermScore> baselineScores;  // --baseline: each metric's and function's score
 
   nlohmann::json toJson() const;
   void printTable(std::ostream& out) const;

@@ -433,7 +433,8 @@ FastswarmParams readFastswarmParams(JsonReader& r, const ModelContext& context) 
   e.dRep = static_cast<float>(r.number("d_rep", e.dRep, Range::length()));
   e.dAtt1 = static_cast<float>(r.number("d_att1", e.dAtt1, Range::length()));
   p.dAtt2 = r.number("d_att2", p.dAtt2, Range::length());
-  if (!(e.dAtt1 <= p.dAtt2)) r.fail("d_att2", "expected d_att1 <= d_att2");
+  // compared as the model keeps them (d_att1 in float): equal values in the file are equal here too
+  if (!(e.dAtt1 <= static_cast<float>(p.dAtt2))) r.fail("d_att2", "expected d_att1 <= d_att2");
   p.candidates = r.integer("candidates", p.candidates, 1, 100000000);
   p.successors = r.boolean("successors", p.successors);
   if (p.successors && p.reference->next.empty()) {
