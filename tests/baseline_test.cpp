@@ -15,8 +15,10 @@
 #include "core/error.hpp"
 #include "core/parallel.hpp"
 #include "eval/tracks.hpp"
+#include "test_util.hpp"
 
 using namespace swarmsim::eval;
+using swarmsim_test::inputErrorOf;
 
 namespace {
 
@@ -41,14 +43,6 @@ BaselineSpec smallSpec(std::uint64_t seed = 7) {
   return s;
 }
 
-std::string inputErrorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const swarmsim::InputError& e) {
-    return e.what();
-  }
-  return "(no InputError)";
-}
 
 // every frame of one pass over [first, last)
 std::vector<Frame> readAll(TrackSource& src, std::int64_t first, std::int64_t last) {

@@ -21,6 +21,7 @@
 #include "test_util.hpp"
 
 using namespace swarmsim::eval;
+using swarmsim_test::inputErrorOf;
 using swarmsim_test::TempDir;
 using swarmsim_test::writeText;
 
@@ -63,14 +64,6 @@ std::string toCsv(const Tracks& t, double dt, const char* delim = ",") {
   return s;
 }
 
-std::string inputErrorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const swarmsim::InputError& e) {
-    return e.what();
-  }
-  return "(no InputError)";
-}
 
 EvaluationResult evalFiles(const std::string& sim, const std::string& ref, const std::string& frames = "",
                            double scale = 1.0) {

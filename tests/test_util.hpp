@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <functional>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -18,6 +19,7 @@
 #include <system_error>
 #include <vector>
 
+#include "core/error.hpp"
 #include "core/parallel.hpp"
 
 namespace swarmsim_test {
@@ -54,6 +56,16 @@ class TempDir {
  private:
   fs::path path_;
 };
+
+// the message of the InputError that f throws, or "(no InputError)"
+inline std::string inputErrorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const swarmsim::InputError& e) {
+    return e.what();
+  }
+  return "(no InputError)";
+}
 
 inline void writeText(const std::string& path, const std::string& text) {
   std::ofstream out(path, std::ios::binary);

@@ -101,16 +101,8 @@ void CorrelationAccumulator::add(const SampleView& s) {
   // velocity correlation over distance, in units of the sample's length per individual
   if (n < 3) return;
   const double* p = f.pos.data();
-  double c[3] = {0, 0, 0};
-  for (std::size_t i = 0; i < n; ++i) {
-    for (std::size_t d = 0; d < 3; ++d) c[d] += p[3 * i + d];
-  }
-  for (double& x : c) x /= static_cast<double>(n);
-  double rg2 = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    for (std::size_t d = 0; d < 3; ++d) rg2 += (p[3 * i + d] - c[d]) * (p[3 * i + d] - c[d]);
-  }
-  const double spacing = std::sqrt(rg2 / static_cast<double>(n)) / std::cbrt(static_cast<double>(n));
+  double c[3], spacing = 0;
+  centroidAndSpacing(f, c, spacing);
   if (!(spacing > 0.0)) return;
   const double binWidth = kMaxDistance / kDistanceBins;
   std::vector<double> u(3 * rows.size());

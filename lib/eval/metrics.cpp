@@ -109,23 +109,39 @@ void nearestNeighbours(const Frame& f, std::vector<std::ptrdiff_t>& nn, std::vec
 
 }  // namespace
 
+
+void centroidAndSpacing(const Frame& f, double c[3], double& spacing) {
+  const std::size_t n = f.size();
+  const double* p = f.pos.data();
+  c[0] = c[1] = c[2] = 0;
+  spacing = 0;
+  if (n == 0) return;
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t d = 0; d < 3; ++d) c[d] += p[3 * i + d];
+  }
+  for (std::size_t d = 0; d < 3; ++d) c[d] /= static_cast<double>(n);
+  double rg2 = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t d = 0; d < 3; ++d) rg2 += (p[3 * i + d] - c[d]) * (p[3 * i + d] - c[d]);
+  }
+  spacing = std::sqrt(rg2 / static_cast<double>(n)) / std::cbrt(static_cast<double>(n));
+}
+
+namespace {  // the collective metrics
+
 // pol, mill (one value each, appended to out) and r_c, d_rel (per row into perRow) of frame f
 void collective(const Frame& f, const std::vector<double>& v, const std::vector<double>& nnDist,
                 std::array<std::vector<double>, kMetricCount>& perRow, FrameValues& out) {
   const std::size_t n = f.size();
   if (n < 2) return;
   const double* p = f.pos.data();
-  double c[3] = {0, 0, 0};
-  for (std::size_t i = 0; i < n; ++i) {
-    for (std::size_t d = 0; d < 3; ++d) c[d] += p[3 * i + d];
-  }
-  for (double& x : c) x /= static_cast<double>(n);
-  double rg2 = 0, dir[3] = {0, 0, 0}, l[3] = {0, 0, 0}, lnorm = 0;
+  double c[3], spacing = 0;
+  centroidAndSpacing(f, c, spacing);
+  double dir[3] = {0, 0, 0}, l[3] = {0, 0, 0}, lnorm = 0;
   std::size_t moving = 0;
   for (std::size_t i = 0; i < n; ++i) {
     const double r[3] = {p[3 * i] - c[0], p[3 * i + 1] - c[1], p[3 * i + 2] - c[2]};
     const double rn = norm3(r);
-    rg2 += rn * rn;
     perRow[kCentreDistance][i] = rn;
     const double* vi = &v[3 * i];
     if (std::isnan(vi[0])) continue;
@@ -139,7 +155,6 @@ void collective(const Frame& f, const std::vector<double>& v, const std::vector<
     lnorm += rn * s;
   }
   if (n >= 3) {
-    const double spacing = std::sqrt(rg2 / static_cast<double>(n)) / std::cbrt(static_cast<double>(n));
     if (spacing > 0.0) {
       for (std::size_t i = 0; i < n; ++i) {
         if (!std::isnan(nnDist[i])) perRow[kRelNnDistance][i] = nnDist[i] / spacing;
@@ -151,6 +166,8 @@ void collective(const Frame& f, const std::vector<double>& v, const std::vector<
     if (lnorm > 0.0) out[kMilling].push_back(norm3(l) / lnorm);
   }
 }
+
+}  // namespace
 
 void computeMetrics(TrackSource& source, double scale,
                     const std::function<void(const FrameValues&, const SampleView&)>& sink) {

@@ -78,6 +78,10 @@ const char* metricUnit(int m);  // "m/s", "m/s^2", "rad/s", "rad/s^2", "m/s^3", 
 // present at k for which it is defined, in id order (pol and mill: at most one)
 using FrameValues = std::array<std::vector<double>, kMetricCount>;
 
+// the centroid c of a frame's positions and its length per individual l = R_g n^(-1/3) (R_g the radius of
+// gyration about c); l = 0 for an empty frame
+void centroidAndSpacing(const Frame& f, double c[3], double& spacing);
+
 // sample k itself, for what needs more than the values (correlations.hpp): the individuals present and
 // their velocities (3 per row, recorded or derived; NaN where not available), already scaled
 struct SampleView {
