@@ -2,10 +2,10 @@
 """pvbatch renders frames of an XDMF export with scripts/paraview_render.py (docs/tools.md#paraview).
 
 A two-swarm run with three obstacles (tests/data/scene.json) is exported as .xmf2 and two frames are
-rendered by ParaView's pvbatch under Xvfb: one PNG per frame, named by the HDF5 frame number, of the asked
+rendered by ParaView's pvbatch on an Xvfb display of its own: one PNG per frame, named by the HDF5 frame number, of the asked
 size; each shows both swarms in their own colours (the two first colours of the script's palette) and the
 grey obstacles, and the two frames differ (the insects moved). A range that selects no frame and an output
-name without a frame field for several frames are exit 2. Exit 77 (skipped) without pvbatch or xvfb-run.
+name without a frame field for several frames are exit 2. Exit 77 (skipped) without pvbatch or Xvfb.
 """
 import os
 import shutil
@@ -27,11 +27,33 @@ def fail(msg):
     sys.exit(1)
 
 
-def run(cmd, cwd, expect=0):
-    p = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, timeout=240)
+def run(cmd, cwd, expect=0, env=None):
+    p = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, timeout=240, env=env)
     if p.returncode != expect:
         fail("%s exited %d (expected %d):\n%s%s" % (" ".join(cmd), p.returncode, expect, p.stdout, p.stderr[-3000:]))
     return p
+
+
+class Xserver:
+    """An Xvfb on a free display, started by us and ready before we go on (-displayfd writes its number once
+    it accepts connections); xvfb-run -a can hand pvbatch a display that is not up yet."""
+
+    def __enter__(self):
+        r, w = os.pipe()
+        self.proc = subprocess.Popen(["Xvfb", "-displayfd", str(w), "-screen", "0", "1280x1024x24", "-nolisten", "tcp"],
+                                     pass_fds=(w,), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        os.close(w)
+        with os.fdopen(r) as f:
+            number = f.readline().strip()
+        if not number:
+            self.proc.kill()
+            fail("Xvfb did not start")
+        self.env = dict(os.environ, DISPLAY=":" + number)
+        return self
+
+    def __exit__(self, *exc):
+        self.proc.terminate()
+        self.proc.wait()
 
 
 def near(img, rgb, tol=0.12):
@@ -40,7 +62,7 @@ def near(img, rgb, tol=0.12):
 
 
 def main():
-    for tool in ("pvbatch", "xvfb-run"):
+    for tool in ("pvbatch", "Xvfb"):
         if shutil.which(tool) is None:
             print("SKIP: %s not installed (Debian packages paraview, xvfb, xauth; scripts/setup.sh --tools)" % tool)
             sys.exit(77)
@@ -48,9 +70,10 @@ def main():
     try:
         run([SWARMSIM, "run", os.path.join(SRC, "tests/data/scene.json"), "-o", "scene.h5", "--quiet"], tmp)
         run([SWARMSIM, "export", "scene.h5", "--format", "xdmf"], tmp)
-        pv = ["xvfb-run", "-a", "-s", "-screen 0 1280x1024x24", "pvbatch", SCRIPT, "scene.xmf2"]
-        run(pv + ["-o", "frames/scene.%04d.png", "--frames", "10:12", "--size", "480", "320", "--point-size", "4"],
-            tmp)
+        pv = ["pvbatch", SCRIPT, "scene.xmf2"]
+        with Xserver() as x:
+            run(pv + ["-o", "frames/scene.%04d.png", "--frames", "10:12", "--size", "480", "320", "--point-size", "4"],
+                tmp, env=x.env)
         names = sorted(os.listdir(os.path.join(tmp, "frames")))
         if names != ["scene.0010.png", "scene.0011.png"]:
             fail("expected scene.0010.png and scene.0011.png, got %s" % names)
@@ -68,8 +91,9 @@ def main():
             counts.append((blue, orange, grey))
         if np.array_equal(imgs[0], imgs[1]):
             fail("frames 10 and 11 are the same image: nothing moved")
-        run(pv + ["-o", "none.%04d.png", "--frames", "30:40"], tmp, expect=2)
-        run(pv + ["-o", "one.png", "--frames", "3:5"], tmp, expect=2)
+        with Xserver() as x:
+            run(pv + ["-o", "none.%04d.png", "--frames", "30:40"], tmp, expect=2, env=x.env)
+            run(pv + ["-o", "one.png", "--frames", "3:5"], tmp, expect=2, env=x.env)
         print("ok: pvbatch rendered frames 10 and 11 with both swarms and the obstacles (pixels blue, orange, grey: %s)"
               % counts)
     finally:
