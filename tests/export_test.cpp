@@ -55,7 +55,7 @@ std::vector<CsvRow> parseCsv(const std::string& text, std::string& header) {
     std::stringstream ss(line);
     std::string x;
     while (std::getline(ss, x, ',')) f.push_back(x);
-    REQUIRE(f.size() == 10);
+    if (f.size() != 10) REQUIRE(f.size() == 10);  // asserted only when wrong: cheap on large exports
     CsvRow r{};
     r.frame = std::stoll(f[0]);
     r.time = std::strtod(f[1].c_str(), nullptr);
@@ -375,18 +375,21 @@ TEST_CASE("export csv: rows formatted in parallel blocks are the serial text, in
   const std::vector<CsvRow> rows = parseCsv(two.out, header);
   REQUIRE(rows.size() == 2u * 70150u);  // frames 0 and 1
   const std::vector<float> pos = readFloatDataset(dir.file("s.h5"), "swarms/midges/position");
-  for (std::size_t k = 0; k < rows.size(); ++k) {  // each frame: the midges in id order, then the gnats
+  // each frame: the midges in id order, then the gnats (counted, not asserted row by row: a sanitized build
+  // spends minutes on 140,000 REQUIREs)
+  std::size_t wrong = 0, firstWrong = rows.size();
+  for (std::size_t k = 0; k < rows.size(); ++k) {
     const std::size_t f = k / 70150, a = k % 70150;
-    REQUIRE(rows[k].frame == static_cast<long long>(f));
-    if (a < 70000) {
-      REQUIRE(rows[k].swarm == "midges");
-      REQUIRE(rows[k].id == a);
-      REQUIRE(rows[k].v[0] == pos[3 * (70000 * f + a)]);
-    } else {
-      REQUIRE(rows[k].swarm == "gnats");
-      REQUIRE(rows[k].id == a - 70000);
+    const bool ok = rows[k].frame == static_cast<long long>(f) &&
+                    (a < 70000 ? rows[k].swarm == "midges" && rows[k].id == a && rows[k].v[0] == pos[3 * (70000 * f + a)]
+                               : rows[k].swarm == "gnats" && rows[k].id == a - 70000);
+    if (!ok) {
+      ++wrong;
+      firstWrong = std::min(firstWrong, k);
     }
   }
+  INFO("first wrong row: " << firstWrong);
+  CHECK(wrong == 0);
 }
 
 TEST_CASE("export csv leaves absent agents out, ply files hold only the present ones", "[export]") {
