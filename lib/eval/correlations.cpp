@@ -33,10 +33,13 @@ CorrelationAccumulator::CorrelationAccumulator(double dt, std::int64_t first, st
   for (auto& b : blocks_) b.resize(lags_, kDistanceBins);
 }
 
+int blockOfSample(std::int64_t sample, std::int64_t first, std::int64_t last, int blocks) {
+  const std::int64_t span = std::max<std::int64_t>(1, last - first);
+  return static_cast<int>(std::clamp<std::int64_t>((sample - first) * blocks / span, 0, blocks - 1));
+}
+
 int CorrelationAccumulator::blockOf(std::int64_t sample) const {
-  const std::int64_t span = std::max<std::int64_t>(1, last_ - first_);
-  const std::int64_t b = (sample - first_) * static_cast<std::int64_t>(blocks_.size()) / span;
-  return static_cast<int>(std::clamp<std::int64_t>(b, 0, static_cast<std::int64_t>(blocks_.size()) - 1));
+  return blockOfSample(sample, first_, last_, static_cast<int>(blocks_.size()));
 }
 
 void CorrelationAccumulator::add(const SampleView& s) {

@@ -39,6 +39,10 @@ struct CorrelationSums {
   void add(const CorrelationSums& o);
 };
 
+// the block (0 .. blocks-1) of `sample` when samples [first, last) are split into `blocks` consecutive blocks
+// of nearly equal length; the one rule for every per-block sum of the bootstrap (score.cpp)
+int blockOfSample(std::int64_t sample, std::int64_t first, std::int64_t last, int blocks);
+
 class CorrelationAccumulator {
  public:
   // samples [first, last) split into `blocks` consecutive blocks of (nearly) equal length

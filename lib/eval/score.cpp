@@ -138,9 +138,7 @@ struct Side {
   std::int64_t centroidSamples = 0;
 
   int blockOf(std::int64_t sample) const {
-    const TrackInfo& t = source->info();
-    const std::int64_t span = std::max<std::int64_t>(1, t.last - t.first);
-    return static_cast<int>(std::clamp<std::int64_t>((sample - t.first) * blocks / span, 0, blocks - 1));
+    return blockOfSample(sample, source->info().first, source->info().last, blocks);
   }
 };
 
@@ -279,11 +277,9 @@ EvaluationResult evaluateSources(std::unique_ptr<TrackSource> simSource, double 
       const Frame& f = *view.frame;
       s.perSample.push_back(static_cast<std::int64_t>(f.size()));
       if (f.size() > 0) {
-        double c[3] = {0, 0, 0};
-        for (std::size_t i = 0; i < f.size(); ++i) {
-          for (std::size_t d = 0; d < 3; ++d) c[d] += f.pos[3 * i + d];
-        }
-        for (std::size_t d = 0; d < 3; ++d) s.centroid[d] += c[d] / static_cast<double>(f.size());
+        double c[3], spacing = 0;
+        centroidAndSpacing(f, c, spacing);
+        for (std::size_t d = 0; d < 3; ++d) s.centroid[d] += c[d];
         ++s.centroidSamples;
       }
     });
@@ -376,7 +372,7 @@ EvaluationResult evaluateSources(std::unique_ptr<TrackSource> simSource, double 
   };
   std::array<bool, kMetricCount> scoredMetric{};
   std::array<bool, 2> scoredCurve{};
-  std::vector<std::int64_t> bufS(kRawBins), bufR(kRawBins), zS, zR;
+  std::vector<std::int64_t> bufS(kRawBins), bufR(kRawBins);
   std::array<std::vector<std::int64_t>, kPaperMetricCount> zsAll, zrAll;
   const auto scoresOf = [&](const Draw& d, bool full, EvaluationResult* out) {
     Scores sc;

@@ -230,6 +230,13 @@ struct SeedScore {
   std::string error;
 };
 
+// what --force may replace: a file that starts as a JSON object (a scenario or a JSON-lines log), checked
+// before the work and again when the file is written
+bool looksLikeJson(const std::string& path) {
+  std::ifstream in(path);
+  return in.peek() == '{';
+}
+
 nlohmann::json intervalJson(const eval::Interval& iv) {
   return iv.valid ? nlohmann::json::array({iv.lo, iv.hi}) : nlohmann::json(nullptr);
 }
@@ -266,7 +273,7 @@ int runFit(const FitOptions& o, std::ostream& out, std::ostream& err) {
   // refuse the outputs before the work, as run does
   for (const std::string& path : {o.output, o.log}) {
     if (path.empty()) continue;
-    const std::string why = refusalToWrite(path, o.force, [](const std::string&) { return true; });
+    const std::string why = refusalToWrite(path, o.force, looksLikeJson);
     if (!why.empty()) throw OutputError(why);
   }
 
@@ -461,19 +468,13 @@ int runFit(const FitOptions& o, std::ostream& out, std::ostream& err) {
 
   // outputs, each atomically
   {
-    AtomicFile f(o.output, o.force, [](const std::string& p) {
-      std::ifstream in(p);
-      return in.peek() == '{';  // a JSON object: a scenario we (or someone) wrote; --force replaces it
-    });
+    AtomicFile f(o.output, o.force, looksLikeJson);
     const std::string text = bestScenario.resolved.dump(2) + "\n";
     f.write(text.data(), text.size());
     f.commit();
   }
   if (!o.log.empty()) {
-    AtomicFile f(o.log, o.force, [](const std::string& p) {
-      std::ifstream in(p);
-      return in.peek() == '{';
-    });
+    AtomicFile f(o.log, o.force, looksLikeJson);
     for (const auto& line : logLines) {
       const std::string text = line.dump() + "\n";
       f.write(text.data(), text.size());
