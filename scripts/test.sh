@@ -6,4 +6,11 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$root/scripts/setup.sh" --tools
 build="${SWARMSIM_BUILD_DIR:-$root/build}"
 cd "$build"
-exec ctest --output-on-failure -j "$(nproc)" "$@"
+rc=0
+ctest --output-on-failure -j "$(nproc)" "$@" || rc=$?
+# ctest shows no output of a skipped test (exit 77): print each one's reason, so a log says why
+awk '/^[0-9]+\/[0-9]+ Testing: /{name=$0; sub(/^[0-9]+\/[0-9]+ Testing: /, "", name)}
+     /^SKIP/{skip=1; print "skipped: " name}
+     /^<end of output>/{skip=0}
+     skip{print "  " $0}' Testing/Temporary/LastTest.log 2>/dev/null || true
+exit "$rc"
