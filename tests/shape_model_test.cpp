@@ -140,8 +140,9 @@ TEST_CASE("shape: F_int acts over each insect's K nearest neighbours within r_at
   // 400 insects in a 6 m box, no noise, no target yet (its key is at 1 s), alpha 1, no MDE, no speed limit
   // to speak of: one step changes each velocity by exactly F_int dt, which the test recomputes by brute force
   const std::string mesh = std::string(SWARMSIM_SOURCE_DIR) + "/data/shapes/sphere.obj";
-  // at the first step (no neighbours known yet) and at the sixth (the search bounded by the last step's K)
-  for (const int warm : {0, 5})
+  // at the first step (no neighbours known yet), at the sixth and the 41st (candidates from near lists kept
+  // over steps, some rebuilt)
+  for (const int warm : {0, 5, 40})
   for (const int K : {1, 6, 40}) {
     swarmsim::Json j = {
         {"name", "knn"}, {"seed", 5u}, {"dt", 0.01}, {"frames", 200u}, {"steps_per_frame", 1u},
@@ -191,4 +192,46 @@ TEST_CASE("shape: F_int acts over each insect's K nearest neighbours within r_at
     CHECK(checked == 400);
     if (K == 40) CHECK(withFew > 50);  // some insects have fewer than K within r_att: all of those count
   }
+}
+
+TEST_CASE("shape: the near lists are a cache: any skin gives the same bits", "[shape]") {
+  // F_con, F_int over the K nearest and MDE all take their candidates from per-insect lists kept across steps
+  // (near_list.hpp). Each sum runs over only the entries that count, in id order, so the result must not
+  // depend on when a list was built: skin 0 (a new list every step), the default, and a wide skin (lists
+  // often too long to keep: the grid's candidates serve that step, MDE's included) give bit-identical
+  // states, while building very different numbers of lists.
+  const std::string mesh = std::string(SWARMSIM_SOURCE_DIR) + "/data/shapes/sphere.obj";
+  const auto run = [&](double skin, double& rebuilds) {
+    swarmsim::Json j = {
+        {"name", "lists"}, {"seed", 11u}, {"dt", 0.02}, {"frames", 100u}, {"steps_per_frame", 1u},
+        {"domain", {{"min", {-6, -6, -6}}, {"max", {6, 6, 6}}}},
+        {"swarms",
+         {{{"name", "flies"}, {"count", 800u}, {"model", "shape"}, {"initial_speed", 0.5},
+           {"spawn", {{"type", "box"}, {"min", {-3, -3, -3}}, {"max", {3, 3, 3}}}},
+           {"params",
+            {{"alpha", 0.5}, {"neighbours", 10u}, {"r_rep", 0.2}, {"r_ali", 0.6}, {"r_att", 2.0}, {"w_att", 1.0},
+             {"min_distance", 0.05}, {"max_speed", 0.5}, {"list_skin", skin},
+             {"targets", {{{"time", 0.0}, {"file", mesh}, {"scale", 0.25}}}}}}}}}};
+    swarmsim::Simulation sim(swarmsim::parseScenario(j, "lists.json"));
+    for (int s = 0; s < 80; ++s) sim.step();
+    rebuilds = sim.model(0).benchInfo()["list_rebuilds"].get<double>();
+    return sim.swarms()[0];
+  };
+  double r0 = 0.0, r1 = 0.0, r2 = 0.0;
+  const swarmsim::SwarmState a = run(0.0, r0), b = run(0.3, r1), c = run(0.8, r2);
+  INFO("lists built per insect-step: " << r0 << ", " << r1 << ", " << r2);
+  for (const swarmsim::SwarmState* o : {&b, &c}) {
+    REQUIRE(o->size() == a.size());
+    CHECK(o->px == a.px);
+    CHECK(o->py == a.py);
+    CHECK(o->pz == a.pz);
+    CHECK(o->vx == a.vx);
+    CHECK(o->vy == a.vy);
+    CHECK(o->vz == a.vz);
+    CHECK(o->id == a.id);
+  }
+  // lists built per insect and step: every one with no skin, a few with the default, more again when wide
+  CHECK(r0 > 0.99);
+  CHECK(r1 < 0.2);
+  CHECK(r2 > 2.0 * r1);
 }

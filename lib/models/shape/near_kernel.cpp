@@ -68,14 +68,24 @@ inline std::size_t collectLanes(const CellBlock& block, std::uint32_t k, float r
   return m;
 }
 
+// the sum of a vector's lanes in a fixed tree order, (l0 + l4) + (l2 + l6) + ((l1 + l5) + (l3 + l7)), the same
+// bits for every lane type
 template <typename L>
-inline void zonalLanes(const NearScratch& s, std::size_t m, const ZoneLanes& z, float out[9][kLanes], int counts[3]) {
+inline float treeSum(typename L::V x) {
+  alignas(16) float f[4];
+  L::fold4(x, f);
+  return (f[0] + f[2]) + (f[1] + f[3]);
+}
+
+// F_int's zonal sums over m (a multiple of kLanes) entries: out[3 z + a] the sum of zone z's unit vectors
+// (axis a), out[9 + z] how many entries zone z has
+template <typename L>
+inline void zonalLanes(const NearScratch& s, std::size_t m, const ZoneLanes& z, float out[12]) {
   using V = typename L::V;
-  V acc[9];
+  V acc[12];
   for (V& a : acc) a = L::set1(0.0f);
   const V one = L::set1(1.0f), tiny = L::set1(kTiny);
   const V rep2 = L::set1(z.rep2), ali2 = L::set1(z.ali2), att2 = L::set1(z.att2);
-  int c[3] = {0, 0, 0};
   for (std::size_t e = 0; e < m; e += kLanes) {
     const V dx = L::load(s.dx.data() + e), dy = L::load(s.dy.data() + e), dz = L::load(s.dz.data() + e);
     const V ux = L::load(s.ux.data() + e), uy = L::load(s.uy.data() + e), uz = L::load(s.uz.data() + e);
@@ -95,15 +105,61 @@ inline void zonalLanes(const NearScratch& s, std::size_t m, const ZoneLanes& z, 
     acc[6] = L::add(acc[6], L::mul(dx, wa));
     acc[7] = L::add(acc[7], L::mul(dy, wa));
     acc[8] = L::add(acc[8], L::mul(dz, wa));
-    c[0] += L::count(inRep);
-    c[1] += L::count(inAli);
-    c[2] += L::count(inAtt);
+    acc[9] = L::add(acc[9], L::band(inRep, one));  // counts as floats: exact far beyond any K
+    acc[10] = L::add(acc[10], L::band(inAli, one));
+    acc[11] = L::add(acc[11], L::band(inAtt, one));
   }
-  for (int a = 0; a < 9; ++a) L::store(out[a], acc[a]);
-  for (int a = 0; a < 3; ++a) counts[a] = c[a];
+  for (int c = 9; c < 12; ++c) out[c] = treeSum<L>(acc[c]);
+  for (int zone = 0; zone < 3; ++zone) {
+    if (out[9 + zone] == 0.0f) continue;  // an empty zone adds nothing: its sums are not needed
+    for (int a = 0; a < 3; ++a) out[3 * zone + a] = treeSum<L>(acc[3 * zone + a]);
+  }
+}
+
+template <typename L>
+inline void classifyLanes(std::size_t m, float qx, float qy, float qz, float threshold, float near2, float reach2,
+                          NearScratch& s, std::size_t counts[3]) {
+  using V = typename L::V;
+  const V vx = L::set1(qx), vy = L::set1(qy), vz = L::set1(qz), thr = L::set1(threshold);
+  const V vnear = L::set1(near2), vreach = L::set1(reach2), zero = L::set1(0.0f), sign = L::set1(-0.0f);
+  std::uint32_t* con = s.conIdx.data();
+  std::uint32_t* nr = s.nearIdx.data();
+  std::uint32_t* md = s.mdeIdx.data();
+  std::size_t nc = 0, nn = 0, nm = 0;
+  for (std::size_t e = 0; e < m; e += kLanes) {
+    const V dx = L::sub(L::load(s.cx.data() + e), vx), dy = L::sub(L::load(s.cy.data() + e), vy);
+    const V dz = L::sub(L::load(s.cz.data() + e), vz);
+    const V d2 = L::add(L::add(L::mul(dx, dx), L::mul(dy, dy)), L::mul(dz, dz));
+    L::store(s.cx.data() + e, dx);
+    L::store(s.cy.data() + e, dy);
+    L::store(s.cz.data() + e, dz);
+    L::store(s.cd2.data() + e, d2);
+    const V man = L::add(L::add(L::andnot(sign, dx), L::andnot(sign, dy)), L::andnot(sign, dz));
+    const auto base = static_cast<std::uint32_t>(e);
+    for (unsigned bits = L::mask(L::band(L::lt(man, thr), L::gt(d2, zero))); bits; bits &= bits - 1u) {
+      con[nc++] = base + static_cast<std::uint32_t>(__builtin_ctz(bits));
+    }
+    for (unsigned bits = L::mask(L::le(d2, vnear)); bits; bits &= bits - 1u) {
+      nr[nn++] = base + static_cast<std::uint32_t>(__builtin_ctz(bits));
+    }
+    for (unsigned bits = L::mask(L::le(d2, vreach)); bits; bits &= bits - 1u) {
+      md[nm++] = base + static_cast<std::uint32_t>(__builtin_ctz(bits));
+    }
+  }
+  counts[0] = nc;
+  counts[1] = nn;
+  counts[2] = nm;
 }
 
 #if SWARMSIM_X86_LANES
+__attribute__((flatten)) void classifySse(std::size_t m, float qx, float qy, float qz, float t, float n2, float r2,
+                                          NearScratch& s, std::size_t c[3]) {
+  classifyLanes<SseLanes>(m, qx, qy, qz, t, n2, r2, s, c);
+}
+SWARMSIM_AVX __attribute__((flatten)) void classifyAvx(std::size_t m, float qx, float qy, float qz, float t, float n2,
+                                                       float r2, NearScratch& s, std::size_t c[3]) {
+  classifyLanes<AvxLanes>(m, qx, qy, qz, t, n2, r2, s, c);
+}
 __attribute__((flatten)) void constraintSse(const NearScratch& s, std::size_t m, float t, float c, float o[3][kLanes],
                                             int& n) {
   constraintLanes<SseLanes>(s, m, t, c, o, n);
@@ -119,13 +175,12 @@ SWARMSIM_AVX __attribute__((flatten)) std::size_t collectAvx(const CellBlock& b,
                                                              std::uint32_t* p) {
   return collectLanes<AvxLanes>(b, k, r2, p);
 }
-__attribute__((flatten)) void zonalSse(const NearScratch& s, std::size_t m, const ZoneLanes& z, float o[9][kLanes],
-                                       int c[3]) {
-  zonalLanes<SseLanes>(s, m, z, o, c);
+__attribute__((flatten)) void zonalSse(const NearScratch& s, std::size_t m, const ZoneLanes& z, float o[12]) {
+  zonalLanes<SseLanes>(s, m, z, o);
 }
 SWARMSIM_AVX __attribute__((flatten)) void zonalAvx(const NearScratch& s, std::size_t m, const ZoneLanes& z,
-                                                    float o[9][kLanes], int c[3]) {
-  zonalLanes<AvxLanes>(s, m, z, o, c);
+                                                    float o[12]) {
+  zonalLanes<AvxLanes>(s, m, z, o);
 }
 #endif
 
@@ -138,10 +193,18 @@ void NearScratch::reserve(std::size_t n) {
   pick.resize(cap);
 }
 
+void NearScratch::growCandidates(std::size_t n) {
+  const std::size_t cap = padded(n + n / 2 + 32);
+  reserve(cap);
+  for (auto* v : {&cx, &cy, &cz, &cd2}) v->resize(cap);
+  for (auto* v : {&cj, &conIdx, &nearIdx, &mdeIdx}) v->resize(cap);
+  if (keys.size() < cap) keys.resize(cap);
+  room_ = cap;
+}
+
 void constraintSum(const CellBlock& block, const std::uint32_t* hits, std::size_t m, const Vec3& q, float threshold,
                    float inv2s2, NearScratch& s, bool avx, Vec3& sum, int& count) {
-  const std::size_t mp = padded(m);
-  s.reserve(mp);
+  s.reserve(padded(m));
   for (std::size_t e = 0; e < m; ++e) {
     const std::uint32_t b = hits[e];
     s.dx[e] = block.x[b] - q.x();
@@ -149,6 +212,13 @@ void constraintSum(const CellBlock& block, const std::uint32_t* hits, std::size_
     s.dz[e] = block.z[b] - q.z();
     s.d2[e] = block.d2[b];
   }
+  constraintSumScratch(m, threshold, inv2s2, s, avx, sum, count);
+}
+
+void constraintSumScratch(std::size_t m, float threshold, float inv2s2, NearScratch& s, bool avx, Vec3& sum,
+                          int& count) {
+  const std::size_t mp = padded(m);
+  s.reserve(mp);
   for (std::size_t e = m; e < mp; ++e) s.dx[e] = s.dy[e] = s.dz[e] = s.d2[e] = 0.0f;  // d2 = 0: not counted
   alignas(32) float lanes[3][kLanes];
 #if SWARMSIM_X86_LANES
@@ -158,6 +228,21 @@ void constraintSum(const CellBlock& block, const std::uint32_t* hits, std::size_
   constraintLanes<ScalarLanes>(s, mp, threshold, inv2s2, lanes, count);
 #endif
   sum = Vec3(laneSum(lanes[0]), laneSum(lanes[1]), laneSum(lanes[2]));
+}
+
+void classifyCandidates(std::size_t m, const Vec3& q, float threshold, float near2, float reach2, NearScratch& s,
+                        bool avx, std::size_t counts[3]) {
+  const std::size_t mp = padded(m);
+  s.reserveCandidates(mp);
+  // padding far away: in no class (its d2 is infinite, never NaN)
+  for (std::size_t e = m; e < mp; ++e) s.cx[e] = s.cy[e] = s.cz[e] = 3.0e38f;
+#if SWARMSIM_X86_LANES
+  avx ? classifyAvx(mp, q.x(), q.y(), q.z(), threshold, near2, reach2, s, counts)
+      : classifySse(mp, q.x(), q.y(), q.z(), threshold, near2, reach2, s, counts);
+#else
+  (void)avx;
+  classifyLanes<ScalarLanes>(mp, q.x(), q.y(), q.z(), threshold, near2, reach2, s, counts);
+#endif
 }
 
 std::size_t collectWithin(const CellBlock& block, std::uint32_t k, float r2, NearScratch& s, bool avx) {
@@ -176,20 +261,19 @@ Vec3 zonalForce(std::size_t m, const ZoneLanes& z, NearScratch& s, bool avx) {
     s.dx[e] = s.dy[e] = s.dz[e] = s.ux[e] = s.uy[e] = s.uz[e] = 0.0f;
     s.d2[e] = 3.0e38f;
   }
-  alignas(32) float lanes[9][kLanes];
-  int counts[3];
+  float out[12];
 #if SWARMSIM_X86_LANES
-  avx ? zonalAvx(s, mp, z, lanes, counts) : zonalSse(s, mp, z, lanes, counts);
+  avx ? zonalAvx(s, mp, z, out) : zonalSse(s, mp, z, out);
 #else
   (void)avx;
-  zonalLanes<ScalarLanes>(s, mp, z, lanes, counts);
+  zonalLanes<ScalarLanes>(s, mp, z, out);
 #endif
   Vec3 f = Vec3::Zero();
   const float sign[3] = {-1.0f, 1.0f, 1.0f};
   for (int zone = 0; zone < 3; ++zone) {
-    if (counts[zone] == 0) continue;
-    const Vec3 sum(laneSum(lanes[3 * zone]), laneSum(lanes[3 * zone + 1]), laneSum(lanes[3 * zone + 2]));
-    f += sum * (sign[zone] * z.w[zone] / static_cast<float>(counts[zone]));
+    if (out[9 + zone] == 0.0f) continue;
+    const Vec3 sum(out[3 * zone], out[3 * zone + 1], out[3 * zone + 2]);
+    f += sum * (sign[zone] * z.w[zone] / out[9 + zone]);
   }
   return f;
 }

@@ -20,6 +20,7 @@
 #include "models/params_util.hpp"
 #include "models/shape/assignment.hpp"
 #include "models/shape/near_kernel.hpp"
+#include "models/shape/near_list.hpp"
 #include "models/shape/path.hpp"
 #include "models/shape/sampling.hpp"
 #include "spatial/nearest.hpp"
@@ -46,36 +47,26 @@ std::uint64_t groupSeed(std::uint64_t seed, std::size_t group) {
   return z ^ (z >> 31);
 }
 
-// keeps the K nearest of the block entries pick[0, m) (ascending; ties: the lower sorted position, as the
-// grid's keys break them), in ascending order; returns how many are kept
-std::size_t keepNearest(const CellBlock& block, NearScratch& ns, std::size_t m, std::size_t K) {
+// keeps the K smallest of keys[0, m) in their given order; returns how many are kept
+std::size_t keepSmallest(std::uint64_t* keys, std::size_t m, std::size_t K) {
   if (m <= K) return m;
-  std::uint32_t* pick = ns.pick.data();
-  const auto key = [&](std::uint32_t b) { return neighbourKey(block.d2[b], b); };  // b ascends with position
-  if (m - K <= 8) {  // a few too many (the usual case): drop the farthest, one at a time
+  if (m - K <= 8) {  // a few too many (the usual case): drop the largest, one at a time
     for (; m > K; --m) {
       std::size_t worst = 0;
-      std::uint64_t worstKey = key(pick[0]);
-      for (std::size_t e = 1; e < m; ++e) {
-        const std::uint64_t ke = key(pick[e]);
-        if (ke > worstKey) {
-          worst = e;
-          worstKey = ke;
-        }
-      }
-      std::copy(pick + worst + 1, pick + m, pick + worst);
+      for (std::size_t e = 1; e < m; ++e) worst = keys[e] > keys[worst] ? e : worst;
+      std::copy(keys + worst + 1, keys + m, keys + worst);
     }
     return K;
   }
-  std::vector<std::uint64_t>& keys = ns.keys;
-  keys.clear();
-  for (std::size_t e = 0; e < m; ++e) keys.push_back(key(pick[e]));
-  std::nth_element(keys.begin(), keys.begin() + static_cast<std::ptrdiff_t>(K), keys.end());
-  std::sort(keys.begin(), keys.begin() + static_cast<std::ptrdiff_t>(K),
-            [](std::uint64_t a, std::uint64_t b) { return keyIndex(a) < keyIndex(b); });
-  for (std::size_t e = 0; e < K; ++e) pick[e] = keyIndex(keys[e]);
+  // many: order by key, keep K, and put them back in their given order (the low half of a key)
+  std::nth_element(keys, keys + K, keys + m);
+  std::sort(keys, keys + K, [](std::uint64_t x, std::uint64_t y) { return keyIndex(x) < keyIndex(y); });
   return K;
 }
+
+// room per insect in the near lists (NearLists): about the candidates within (1 + skin) times the K-th
+// distance in three dimensions, with F_con's and MDE's few
+std::size_t listCapacity(std::size_t K) { return 4 * K + 16; }
 
 class ShapeConfig final : public ModelConfig {
  public:
@@ -181,6 +172,7 @@ class ShapeModel final : public Model {
     info["ms_mde"] = 1e3 * tMde_ / steps;
     info["theta"] = p_.theta;
     info["neighbours"] = p_.neighbours;
+    info["list_rebuilds"] = static_cast<double>(rebuilds_) / (steps * static_cast<double>(std::max<std::size_t>(1, lastCount_)));
     info["max_speed"] = p_.maxSpeed;
     return info;
   }
@@ -202,6 +194,7 @@ class ShapeModel final : public Model {
     frameMoved_ = static_cast<std::size_t>(in.get<std::uint64_t>());
     frameAgentSteps_ = static_cast<std::size_t>(in.get<std::uint64_t>());
     cellHint_ = in.get<float>();
+    lists_.clear();  // caches of positions the loaded state does not have
     if (!(cellHint_ >= 0.0f && cellHint_ <= static_cast<float>(p_.rAtt))) throw std::runtime_error("shape checkpoint: bad cell");
     if (g < -1 || g >= static_cast<std::int64_t>(groupStart_.size())) throw std::runtime_error("shape checkpoint: bad group");
     if (g >= 0) {
@@ -214,6 +207,7 @@ class ShapeModel final : public Model {
 
   void step(const World& world, SwarmState& s, const StepInfo& info) override {
     const std::size_t n = s.size();
+    lastCount_ = n;
     const double t = info.time;
     const float dt = static_cast<float>(world.dt);
 
@@ -288,7 +282,6 @@ class ShapeModel final : public Model {
     const float* sy = grid_.sortedY().data();
     const float* sz = grid_.sortedZ().data();
     const bool obstacles = clearance_.any();
-    const float searchR = std::max({kh, mdReach, cellHint_, 1e-4f});  // the grid's cell: one 27-cell block
     const float rAtt = static_cast<float>(p_.rAtt);
     const auto K = static_cast<std::size_t>(std::max(0, p_.neighbours));
     const float reachSlack = 2.0f * vmax * dt;  // the K-th neighbour's distance changes by at most this in a step
@@ -310,85 +303,129 @@ class ShapeModel final : public Model {
     // step, a resume, fewer than K within r_att) spatial/nearest.hpp widens from the block. The K are
     // sorted, so the result depends on none of this, only on the positions.
     if (nearest) {
-      // by state index, which is last step's sorted position (the state is written back in grid order), so
-      // an insect's entries sit about where it does in the sorted arrays
-      if (prevCount_.size() != n || prev_.size() != n * K) {
-        for (auto* a : {&prev_, &prevNext_}) a->assign(n * K, 0);
-        for (auto* a : {&prevCount_, &prevCountNext_}) a->assign(n, 0);
-        for (auto* a : {&reach_, &reachNext_}) a->assign(n, 0.0f);
-      }
-      posOfIndex_.resize(n);
-      parallelFor(n, [&](std::size_t k) { posOfIndex_[order[k]] = static_cast<std::uint32_t>(k); });
+      // by id: last step's K nearest and how many (a bound for this step's search only); the near lists;
+      // this step's sorted position of every id
+      if (reachLast_.size() != n) reachLast_.assign(n, cellHint_);
+      lists_.reset(n, listCapacity(K), static_cast<float>(p_.listSkin));
+      reach_.resize(n);
+      posOfId_.resize(n);
+      parallelFor(n, [&](std::size_t k) { posOfId_[ids_[k]] = static_cast<std::uint32_t>(k); });
     }
     const ZoneLanes zoneLanes = {zones.rRep2, zones.rAli2, zones.rAtt2, {zones.w[0], zones.w[1], zones.w[2]}};
     const bool avx = useAvx();
-    const auto nearestForce = [&](std::size_t k, NearScratch& ns, const CellBlock& block, std::size_t hits,
-                                  float covered) -> Vec3 {
+    // F_con (into fCon) and F_int (returned) of sorted insect k from its near-list candidates. Every sum runs
+    // over the entries that count, packed in id order, so it depends on the positions only.
+    const float mdReach2 = mdReach * mdReach * (1.0f + 1e-5f);  // float slack: a larger radius is harmless
+    if (nearest) {
+      mdeNear_.resize(n * kMdeRoom);
+      mdeCount_.resize(n);
+    }
+    const auto nearForces = [&](std::size_t k, NearScratch& ns, Vec3& fCon) -> Vec3 {
       const float qx = sx[k], qy = sy[k], qz = sz[k];
+      // last step's data of this insect sit in its state index (last step's sorted position), unless the
+      // state is not as last step left it (the step after a resume or a new target)
       const std::uint32_t i = order[k];
-      float r = covered, hint = 1.1f * reach_[i] + reachSlack;
-      if (prevCount_[i] == K) {
-        // the farthest of last step's K, now: K are within it, so the search goes there at once
-        const std::uint32_t* prev = prev_.data() + static_cast<std::size_t>(i) * K;
-        float bound2 = 0.0f;
-        for (std::size_t q = 0; q < K; ++q) {
-          const std::uint32_t j = posOfIndex_[prev[q]];
-          const float dx = sx[j] - qx, dy = sy[j] - qy, dz = sz[j] - qz;
-          bound2 = std::max(bound2, dx * dx + dy * dy + dz * dz);
+      const std::uint32_t from = i < lastIds_.size() && lastIds_[i] == ids_[k] ? i : NearLists::kNone;
+      // the candidates: every insect within `cover` now, from the list when it reaches F_con's and MDE's
+      // radii, else a new one of 1 + skin times the larger of those and last step's K-th distance
+      // F_int's K nearest within r_att lie within last step's K-th distance plus two of last step's largest
+      // moves (those K are still there): `guess`, the first radius searched; the whole coverage when it
+      // holds fewer than K
+      const bool known = from != NearLists::kNone;
+      float lastReach = 0.0f, guess = rAtt;
+      if (known) {
+        lastReach = reachLast_[from];
+        guess = std::min(rAtt, lastReach + 2.0f * static_cast<float>(lists_.lastMove()) * 1.001f + 1e-6f);
+      } else {
+        // no last step here (the first step, a resume, a new target): the K-th distance now, from the grid
+        // searching outward (spatial/nearest.hpp)
+        std::vector<std::uint64_t>& found = ns.keys;
+        found.clear();
+        if (nearestKeys(grid_, static_cast<std::uint32_t>(k), K, 0.0f, std::max({cellHint_, kh, 1e-3f * rAtt}), rAtt,
+                        found) == K) {
+          lastReach = guess = std::min(rAtt, std::sqrt(keyDistance2(found[K - 1])) * (1.0f + 1e-5f));
+        } else {
+          lastReach = rAtt;
         }
-        hint = std::min(std::sqrt(bound2) * (1.0f + 1e-5f), rAtt);  // a larger radius is harmless: float slack
-        r = std::min(r, hint);
       }
-      // the K nearest as sorted positions, ascending: from the block when it holds K within r (it holds
-      // every insect within r), else from the grid
+      const float need = std::max({kh, mdReach, guess});
+      float cover = lists_.coverage(from);
       std::size_t m = 0;
-      if (r <= searchR) {  // the usual case: among the block's entries within the cell size (F_con's hits)
-        ns.reserve(hits);
-        const float r2 = r * r;
-        for (std::size_t h = 0; h < hits; ++h) {  // branch-free compaction
-          const std::uint32_t b = block.hits[h];
-          ns.pick[m] = b;
-          m += static_cast<std::size_t>(block.d2[b] <= r2) & static_cast<std::size_t>(block.index[b] != k);
+      const std::uint32_t* cand = nullptr;
+      if (cover >= need) {
+        cand = lists_.keep(from, static_cast<std::uint32_t>(k), m);
+      } else {
+        cover = std::min(rAtt, (1.0f + lists_.skin()) * std::max(need, lastReach));
+        cover = std::max({cover, kh, mdReach});
+        cand = lists_.build(static_cast<std::uint32_t>(k), cover, grid_, ids_.data(), ns.ids, m);
+      }
+      std::size_t counts[3];
+      std::size_t mk = 0;
+      for (;;) {
+        ns.reserveCandidates(m);
+        for (std::size_t e = 0; e < m; ++e) {  // their positions (the one random access of each)
+          const std::uint32_t j = posOfId_[cand[e]];
+          ns.cj[e] = j;
+          ns.cx[e] = sx[j];
+          ns.cy[e] = sy[j];
+          ns.cz[e] = sz[j];
         }
-      } else {
-        m = collectWithin(block, static_cast<std::uint32_t>(k), r * r, ns, avx);
+        // offsets, squared distances, and who counts for F_con, F_int (within the first radius) and MDE
+        const float reach = std::min({cover, rAtt, guess});
+        classifyCandidates(m, Vec3(qx, qy, qz), kh, reach * reach, mdReach2, ns, avx, counts);
+        mk = counts[1];
+        if (mk < K && reach < std::min(cover, rAtt)) {  // fewer than K within the first radius: all of cover
+          const float c2 = std::min(cover, rAtt) * std::min(cover, rAtt);
+          mk = 0;
+          for (std::size_t e = 0; e < m; ++e) {
+            ns.nearIdx[mk] = static_cast<std::uint32_t>(e);
+            mk += static_cast<std::size_t>(ns.cd2[e] <= c2);
+          }
+        }
+        if (mk >= K || cover >= rAtt) break;
+        // fewer than K within the coverage, which is short of r_att: a wider list (rare)
+        cover = std::min(rAtt, 1.5f * cover);
+        cand = lists_.build(static_cast<std::uint32_t>(k), cover, grid_, ids_.data(), ns.ids, m);
       }
-      std::uint32_t* near = ns.pick.data();
-      if (m >= K || r >= rAtt) {
-        m = keepNearest(block, ns, m, K);
-        for (std::size_t q = 0; q < m; ++q) near[q] = block.index[near[q]];
-      } else {
-        std::vector<std::uint64_t>& keys = ns.keys;
-        keys.clear();
-        for (std::size_t q = 0; q < m; ++q) keys.push_back(neighbourKey(block.d2[near[q]], block.index[near[q]]));
-        m = nearestKeys(grid_, static_cast<std::uint32_t>(k), K, r, hint, rAtt, keys);
-        std::sort(keys.begin(), keys.begin() + static_cast<std::ptrdiff_t>(m),
-                  [](std::uint64_t a, std::uint64_t b) { return keyIndex(a) < keyIndex(b); });
-        ns.reserve(m);
-        near = ns.pick.data();
-        for (std::size_t q = 0; q < m; ++q) near[q] = keyIndex(keys[q]);
+      if (shaped) {  // F_con over its entries, packed in id order
+        const std::size_t mc = counts[0];
+        for (std::size_t c = 0; c < mc; ++c) {
+          const std::uint32_t e = ns.conIdx[c];
+          ns.dx[c] = ns.cx[e];
+          ns.dy[c] = ns.cy[e];
+          ns.dz[c] = ns.cz[e];
+          ns.d2[c] = ns.cd2[e];
+        }
+        Vec3 sum;
+        int count = 0;
+        constraintSumScratch(mc, kh, inv2s2, ns, avx, sum, count);
+        fCon = count > 0 ? Vec3(sum * (-wCon / static_cast<float>(count))) : Vec3::Zero();
       }
-      // for the next step, whose state index is this step's sorted position
-      prevCountNext_[k] = static_cast<std::uint32_t>(m);
-      std::uint32_t* next = prevNext_.data() + k * K;
+      std::uint64_t* keys = ns.keys.data();
+      for (std::size_t c = 0; c < mk; ++c) {
+        const std::uint32_t e = ns.nearIdx[c];
+        keys[c] = neighbourKey(ns.cd2[e], e);  // ties: the lower id
+      }
+      // MDE's candidates (within its reach now), kept for the MDE pass when they fit its slot
+      const std::size_t mm = counts[2];
+      mdeCount_[k] = mm <= kMdeRoom ? static_cast<std::uint8_t>(mm) : kMdeNone;
+      for (std::size_t c = 0; c < std::min(mm, kMdeRoom); ++c) mdeNear_[k * kMdeRoom + c] = cand[ns.mdeIdx[c]];
+      // F_int over the K nearest within r_att, in id order
+      mk = keepSmallest(keys, mk, K);
       float far2 = 0.0f;
-      ns.reserve(m);
-      for (std::size_t q = 0; q < m; ++q) {
-        const std::uint32_t j = near[q];
-        next[q] = j;
-        const float dx = sx[j] - qx, dy = sy[j] - qy, dz = sz[j] - qz;
-        const float d2 = dx * dx + dy * dy + dz * dz;
-        far2 = std::max(far2, d2);
-        ns.dx[q] = dx;
-        ns.dy[q] = dy;
-        ns.dz[q] = dz;
-        ns.d2[q] = d2;
+      for (std::size_t q = 0; q < mk; ++q) {
+        const std::uint32_t e = keyIndex(keys[q]), j = ns.cj[e];
+        far2 = std::max(far2, ns.cd2[e]);
+        ns.dx[q] = ns.cx[e];
+        ns.dy[q] = ns.cy[e];
+        ns.dz[q] = ns.cz[e];
+        ns.d2[q] = ns.cd2[e];
         ns.ux[q] = vx_[j] - vx_[k];
         ns.uy[q] = vy_[j] - vy_[k];
         ns.uz[q] = vz_[j] - vz_[k];
       }
-      reachNext_[k] = m == K ? std::sqrt(far2) : rAtt;
-      return zonalForce(m, zoneLanes, ns, avx);
+      reach_[k] = mk == K ? std::sqrt(far2) : rAtt;
+      return zonalForce(mk, zoneLanes, ns, avx);
     };
 
     // the rest of insect k's step, given F_int and F_con's sum
@@ -430,20 +467,11 @@ class ShapeModel final : public Model {
     };
 
     if (nearest) {
-      // one pass over each cell's 27-cell neighbourhood (gathered once for the cell's insects): F_con's
-      // neighbours and F_int's candidates
-      forEachPointNeighbors(grid_, searchR, blocks_, [&](std::uint32_t k, const CellBlock& block, std::size_t hits) {
+      parallelForDynamic(n, 256, [&](std::size_t k) {
         NearScratch& ns = scratch_[static_cast<std::size_t>(threadIndex())];
-        const Vec3 q(sx[k], sy[k], sz[k]);
         Vec3 fCon = Vec3::Zero();
-        if (shaped) {
-          Vec3 sum;
-          int count = 0;
-          constraintSum(block, block.hits.data(), hits, q, kh, inv2s2, ns, avx, sum, count);
-          if (count > 0) fCon = sum * (-wCon / static_cast<float>(count));
-        }
-        const float covered = std::min(rAtt, grid_.coveredRadius(block, q.x(), q.y(), q.z()));
-        insect(k, nearestForce(k, ns, block, hits, covered), fCon);
+        const Vec3 fInt = nearForces(k, ns, fCon);
+        insect(k, fInt, fCon);
       });
     } else {
       parallelFor(n, [&](std::size_t k) {
@@ -459,11 +487,9 @@ class ShapeModel final : public Model {
     if (nearest) {
       // the next step's cell: the 90th percentile of the K-th neighbour distances, plus a step's movement (fewer
       // insects need the grid search beyond their block than with the median; measured on moon and horse)
-      prev_.swap(prevNext_);
-      prevCount_.swap(prevCountNext_);
-      reach_.swap(reachNext_);
+      reach_.swap(reachLast_);
       if (n > 0) {
-        sortScratch_.assign(reach_.begin(), reach_.end());
+        sortScratch_.assign(reachLast_.begin(), reachLast_.begin() + static_cast<std::ptrdiff_t>(n));
         const std::size_t q = n - 1 - n / 10;
         std::nth_element(sortScratch_.begin(), sortScratch_.begin() + static_cast<std::ptrdiff_t>(q),
                          sortScratch_.end());
@@ -478,10 +504,61 @@ class ShapeModel final : public Model {
     next_.resizeStorage(n);
     movedFlag_.resize(n);
     const Vec3 lo = domain_.min.cast<float>(), hi = domain_.max.cast<float>();
+    const float md2 = md * md;
+    // MDE of sorted insect k from its near list (or, without one, this step's grid): the neighbours closer
+    // than d_min at the moved positions, packed in id order; returns whether it was pushed
+    const auto listPush = [&](std::size_t k, Vec3& x) -> bool {
+      NearScratch& ns = scratch_[static_cast<std::size_t>(threadIndex())];
+      const float qx = tx_[k], qy = ty_[k], qz = tz_[k];
+      const std::uint32_t id = ids_[k];
+      const auto counts = [&](std::uint32_t j) {
+        const float dx = tx_[j] - qx, dy = ty_[j] - qy, dz = tz_[j] - qz;
+        const float d2 = dx * dx + dy * dy + dz * dz;
+        return (d2 < md2 && d2 > 0.0f) || (tx_[j] == qx && ty_[j] == qy && tz_[j] == qz);
+      };
+      std::size_t m = mdeCount_[k];
+      const std::uint32_t* cand = mdeNear_.data() + k * kMdeRoom;
+      if (m == kMdeNone) cand = lists_.stored(static_cast<std::uint32_t>(k), m);
+      if (!cand) {  // no list (too many candidates to keep): the grid's, those that count, by id
+        std::vector<std::uint32_t>& found = ns.ids;
+        found.clear();
+        grid_.forEachRun(sx[k], sy[k], sz[k], mdReach, [&](std::uint32_t b, std::uint32_t e) {
+          for (std::uint32_t j = b; j < e; ++j) {
+            if (j != k && counts(j)) found.push_back(ids_[j]);
+          }
+        });
+        std::sort(found.begin(), found.end());
+        cand = found.data();
+        m = found.size();
+      }
+      ns.reserveCandidates(m);
+      std::size_t mc = 0, nz = 0;
+      for (std::size_t e = 0; e < m; ++e) {
+        const std::uint32_t j = posOfId_[cand[e]];
+        const float px = tx_[j], py = ty_[j], pz = tz_[j];
+        const float dx = px - qx, dy = py - qy, dz = pz - qz;
+        const float d2 = dx * dx + dy * dy + dz * dz;
+        ns.ux[mc] = px;
+        ns.uy[mc] = py;
+        ns.uz[mc] = pz;
+        mc += static_cast<std::size_t>(d2 < md2) & static_cast<std::size_t>(d2 > 0.0f);
+        if (px == qx && py == qy && pz == qz) ns.cj[nz++] = cand[e];  // exactly coincident (rare)
+      }
+      MdePush kernel(md);
+      kernel.start(qx, qy, qz);
+      kernel.add(ns.ux.data(), ns.uy.data(), ns.uz.data(), 0, static_cast<std::uint32_t>(mc));
+      x += kernel.push();
+      // an exactly coincident neighbour: the pair separates along x, ordered by id
+      for (std::size_t q = 0; q < nz; ++q) x.x() += (id < ns.cj[q] ? -0.5f : 0.5f) * md;
+      return kernel.hits() > 0 || nz > 0;
+    };
+    if (nearest) move2_.resize(n);
     parallelFor(n, [&](std::size_t k) {
       Vec3 x(tx_[k], ty_[k], tz_[k]);
       bool pushed = false;
-      if (md > 0.0f) {
+      if (md > 0.0f && nearest) {
+        pushed = listPush(k, x);
+      } else if (md > 0.0f) {
         MdePush kernel(md);
         kernel.start(tx_[k], ty_[k], tz_[k]);
         grid_.forEachRun(sx[k], sy[k], sz[k], mdReach,
@@ -500,6 +577,7 @@ class ShapeModel final : public Model {
         }
       }
       x = clearance_.apply(x).cwiseMax(lo).cwiseMin(hi);
+      if (nearest) move2_[k] = (x - Vec3(sx[k], sy[k], sz[k])).squaredNorm();
       movedFlag_[k] = pushed ? 1 : 0;
       next_.px[k] = x.x();
       next_.py[k] = x.y();
@@ -513,13 +591,20 @@ class ShapeModel final : public Model {
     });
     std::size_t moved = 0;
     for (std::size_t k = 0; k < n; ++k) moved += movedFlag_[k];
+    if (nearest) {  // how far the lists' insects can have moved (a max: the same for any order)
+      float move2 = 0.0f;
+      for (std::size_t k = 0; k < n; ++k) move2 = std::max(move2, move2_[k]);
+      lists_.advance(static_cast<double>(std::sqrt(move2)) * (1.0 + 1e-5) + 1e-7);
+      rebuilds_ += lists_.takeRebuilds();
+    }
     tMde_ += since(t0);
     s.swapStorage(next_);
 
     frameMoved_ += moved;
     frameAgentSteps_ += n;
     if (info.step == 0) {
-      tInteraction_ = tForces_ = tMde_ = 0.0;  // the first step sizes every buffer: not timed
+      tInteraction_ = tForces_ = tMde_ = 0.0;
+      rebuilds_ = 0;  // the first step sizes every buffer: not timed
     } else {
       ++timedSteps_;
     }
@@ -634,21 +719,29 @@ class ShapeModel final : public Model {
   std::vector<float> cnx_, cny_, cnz_;  // each insect's curl noise this step
   std::vector<std::uint32_t> ids_, lastIds_;        // ids by sorted position, this step's and last step's
   std::vector<std::uint32_t> sample_, lastSample_;  // the insects' samples (assign_) by sorted position, alike
-  std::vector<CellBlock> blocks_;                  // per thread: a cell's neighbourhood
   std::vector<NearScratch> scratch_;               // per thread: the near-field kernels' scratch
   // per state index (last step's sorted position), with the next step's in *Next_: the K nearest of last
   // step, as state indices (any K other insects bound the K-th distance: a bound only, never checkpointed),
   // how many there were, and the K-th one's distance (a search hint only)
-  std::vector<std::uint32_t> prev_, prevNext_;
-  std::vector<std::uint32_t> prevCount_, prevCountNext_;
-  std::vector<float> reach_, reachNext_;
-  std::vector<std::uint32_t> posOfIndex_;  // state index -> sorted position this step
+  // this step's K-th distance (r_att if fewer) by sorted position, and last step's by state index
+  std::vector<float> reach_, reachLast_;
+  std::vector<std::uint32_t> posOfId_;    // id -> sorted position this step
+  NearLists lists_;                       // the near lists (near_list.hpp)
+  // by sorted position: the ids of the candidates within MDE's reach (this step's positions; in id order)
+  // and how many, or kMdeNone when they did not fit (MDE then takes the whole near list)
+  static constexpr std::size_t kMdeRoom = 6;
+  static constexpr std::uint8_t kMdeNone = 0xff;
+  std::vector<std::uint32_t> mdeNear_;
+  std::vector<std::uint8_t> mdeCount_;
+  std::vector<float> move2_;              // by sorted position: the squared move of this step
   float cellHint_ = 0.0f;     // the grid's smallest cell from the last step's K-th distances (checkpointed)
   std::vector<std::uint8_t> movedFlag_;
   std::vector<float> err_, speed_, sortScratch_;
   SwarmState next_;
   std::size_t frameMoved_ = 0, frameAgentSteps_ = 0, timedSteps_ = 0;
   double tDistance_ = 0.0, tNoise_ = 0.0, tSampling_ = 0.0, tAssignment_ = 0.0;
+  std::size_t rebuilds_ = 0;   // near lists built from the grid in the timed steps
+  std::size_t lastCount_ = 0;  // insects of the last step
   double tInteraction_ = 0.0, tForces_ = 0.0, tMde_ = 0.0;
 };
 
@@ -687,6 +780,7 @@ ShapeParams readShapeParams(JsonReader& r, const ModelContext& context) {
   p.obstacleRange = r.number("obstacle_range", p.obstacleRange, Range::length());
   p.agentRadius = r.number("agent_radius", p.agentRadius, Range::lengthOrZero());
   p.sdfCells = readCells(r, "sdf_cells", false, 2, 1024);
+  p.listSkin = r.number("list_skin", p.listSkin, Range::closed(0.0, 4.0));
   p.sampleSeed = r.unsignedInteger("sample_seed", context.world.seed);
   p.count = context.count;
 

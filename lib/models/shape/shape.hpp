@@ -72,6 +72,9 @@ struct ShapeParams {
   double obstacleRange = 1.0;  // L, m: the obstacle ramp's influence length (eq. 8-9)
   double agentRadius = 0.01;   // clearance kept from obstacles, m
   std::array<int, 3> sdfCells = {0, 0, 0};  // obstacle distance grid (default: from the domain)
+  // the near lists' skin (near_list.hpp): lists are built at (1 + skin) times the radius needed. Speed
+  // only: any value gives the same bits
+  double listSkin = 0.3;
   std::uint64_t sampleSeed = 0;             // seed of the stratified sampling (default: the scenario's)
   std::vector<ShapeKey> keys;               // at least one
   std::int64_t count = 1;                   // insects of the swarm (one sample each)

@@ -1,0 +1,91 @@
+#pragma once
+// Per-insect neighbour lists kept across steps (Verlet lists) for the shape
+// model's near-field sums (F_con, F_int over the K nearest, MDE).
+//
+// Insect i's list holds the ids of every other insect that was within its
+// radius R_i when the list was built, ascending by id. A step asks for every
+// insect within some radius ρ_i now. Between the build and now no insect moved
+// farther than ΔS (the sum of each step's largest move, advance()), so any
+// insect within ρ_i now was within ρ_i + 2 ΔS then: the list still covers ρ_i
+// while ρ_i + 2 ΔS <= R_i. Otherwise the list is built again from the grid, at
+// R_i = ρ_i (1 + skin); one too long for its slot (capacity) is not kept, and
+// the grid's candidates serve that step only.
+//
+// The lists are a cache: the callers use only the candidates within the radius
+// they need, in id order, so what they compute depends on the positions alone,
+// never on when a list was built (a resumed run, which starts without lists,
+// equals an uninterrupted one; any thread count gives the same bits).
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include "spatial/uniform_grid.hpp"
+
+namespace swarmsim {
+
+class NearLists {
+ public:
+  static constexpr std::uint32_t kNone = 0xffffffffu;
+
+  // n insects, room for `capacity` neighbours each; lists are built at ρ (1 + skin). Changing n or
+  // capacity drops every list.
+  void reset(std::size_t n, std::size_t capacity, float skin);
+  // drop every list (the next step builds them again)
+  void clear();
+
+  // Lists live in slots: the state's order, which each step rewrites in its grid order, so a step reads
+  // the slots of last step (`from`, the insect's state index, or kNone when it has no list there) and
+  // writes this step's (`k`, its sorted position in the grid), nearly in sequence.
+  //
+  // The radius about insect k within which the list in slot `from` still holds every insect now (less a
+  // float slack), or a negative number when there is none.
+  float coverage(std::uint32_t from) const {
+    if (from == kNone || last_.len[from] == kNone) return -1.0f;
+    return static_cast<float>((static_cast<double>(last_.radius[from]) - 2.0 * (moved_ - last_.movedAt[from]) -
+                               1e-6) /
+                              (1.0 + 1e-5));
+  }
+  // keep the list of slot `from` for sorted insect k: its ids (ascending, the insect itself left out)
+  const std::uint32_t* keep(std::uint32_t from, std::uint32_t k, std::size_t& m);
+  // a new list for sorted insect k: every other grid point within r (its coverage now), ascending by id;
+  // kept when it fits (`scratch` holds it otherwise). `idOf` maps a sorted position to its id.
+  const std::uint32_t* build(std::uint32_t k, float r, const UniformGrid& grid, const std::uint32_t* idOf,
+                             std::vector<std::uint32_t>& scratch, std::size_t& m);
+  // the largest move of last step (m)
+  double lastMove() const { return lastMove_; }
+  float skin() const { return skin_; }
+
+  // sorted insect k's list as candidates() left it this step, or nullptr when it has none (it did not fit)
+  const std::uint32_t* stored(std::uint32_t k, std::size_t& m) const {
+    m = next_.len[k];
+    return m == kNone ? nullptr : next_.ids.data() + static_cast<std::size_t>(k) * capacity_;
+  }
+  // after a step in which no insect moved farther than maxMove (m): this step's lists become last step's
+  void advance(double maxMove) {
+    moved_ += maxMove;
+    lastMove_ = maxMove;
+    std::swap(last_, next_);
+  }
+
+  // lists built from the grid since the last call (a statistic; reads and resets)
+  std::size_t takeRebuilds() { return rebuilt_.exchange(0); }
+
+ private:
+  struct Slots {
+    std::vector<std::uint32_t> ids;   // n × capacity
+    std::vector<std::uint32_t> len;   // per slot: list length, or kNone
+    std::vector<float> radius;        // per slot: R_i
+    std::vector<double> movedAt;      // per slot: moved_ when the list was built
+    void assign(std::size_t n, std::size_t capacity);
+  };
+  std::size_t n_ = 0, capacity_ = 0;
+  float skin_ = 0.3f;
+  double moved_ = 0.0;  // Σ of each step's largest move
+  double lastMove_ = 0.0;
+  Slots last_, next_;
+  std::atomic<std::size_t> rebuilt_{0};
+};
+
+}  // namespace swarmsim
