@@ -357,7 +357,7 @@ class ShapeModel final : public Model {
       } else {
         cover = std::min(rAtt, (1.0f + lists_.skin()) * std::max(need, lastReach));
         cover = std::max({cover, kh, mdReach});
-        cand = lists_.build(static_cast<std::uint32_t>(k), cover, grid_, ids_.data(), ns.ids, m);
+        cand = lists_.build(static_cast<std::uint32_t>(k), cover, grid_, ids_.data(), ns.ids, m, avx);
       }
       std::size_t counts[3];
       std::size_t mk = 0;
@@ -385,7 +385,7 @@ class ShapeModel final : public Model {
         if (mk >= K || cover >= rAtt) break;
         // fewer than K within the coverage, which is short of r_att: a wider list (rare)
         cover = std::min(rAtt, 1.5f * cover);
-        cand = lists_.build(static_cast<std::uint32_t>(k), cover, grid_, ids_.data(), ns.ids, m);
+        cand = lists_.build(static_cast<std::uint32_t>(k), cover, grid_, ids_.data(), ns.ids, m, avx);
       }
       if (shaped) {  // F_con over its entries, packed in id order
         const std::size_t mc = counts[0];
