@@ -38,6 +38,16 @@ const BuiltinCase kCases[] = {
                              "noise": {"cells": [4, 4, 4], "gain": 0},
                              "goals": [{"type": "sphere", "center": [64, 64, 64], "radius": 0.5}]}}]
     })"},
+    {"fmm-128-order2", R"({
+      "name": "fmm-128-order2", "description": "fmm-128 with the second-order scheme: cost_order 2",
+      "seed": 1, "dt": 0.01, "frames": 2, "steps_per_frame": 1,
+      "domain": {"min": [0, 0, 0], "max": [128, 128, 128]},
+      "swarms": [{"name": "probe", "count": 1, "model": "field",
+                  "spawn": {"type": "sphere", "center": [10, 10, 10], "radius": 0},
+                  "params": {"speed": 1.0, "cost_cells": [128, 128, 128], "cost_order": 2,
+                             "noise": {"cells": [4, 4, 4], "gain": 0},
+                             "goals": [{"type": "sphere", "center": [64, 64, 64], "radius": 0.5}]}}]
+    })"},
     {"boids-100k", R"({
       "name": "boids-100k", "seed": 7, "dt": 0.01, "frames": 20, "steps_per_frame": 1,
       "domain": {"min": [-12, -12, -12], "max": [12, 12, 12]},

@@ -528,3 +528,117 @@ TEST_CASE("Fields do not depend on the thread count", "[fields]") {
   CHECK(sameBytes(one.C, two.C));
   CHECK(sameBytes(one.G, two.G));
 }
+
+namespace {
+// max and mean of C − |x − c| over the cells (in cells of the grid's edge), C from a point goal at the centre
+// of the cell holding c, at the given order
+std::pair<double, double> pointSourceError(int n, int order) {
+  const GridSpec spec = GridSpec::covering(Vec3d(0, 0, 0), Vec3d(1, 1, 1), {n, n, n});
+  FastMarchingInput in = uniformInput(spec, 1.0f);
+  in.order = order;
+  const auto g = spec.cellOf(Vec3d(0.3, 0.4, 0.55));
+  in.goal[spec.index(g[0], g[1], g[2])] = 1;
+  const Vec3d goal = spec.center(g[0], g[1], g[2]);
+  const Grid3<float> C = swarmsim::fastMarching(in);
+  double maxErr = 0.0, sumErr = 0.0;
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        const double e = std::abs(C.at(i, j, k) - (spec.center(i, j, k) - goal).norm());
+        maxErr = std::max(maxErr, e);
+        sumErr += e;
+      }
+  const double h = spec.cell[0];
+  return {maxErr / h, sumErr / static_cast<double>(spec.size()) / h};
+}
+
+// max and mean |C − |x − c|| (in the unit box's length) outside a ball of radius r0 about c, whose cells
+// start with their exact distance: a smooth solution, no point singularity
+std::pair<double, double> smoothError(int n, int order) {
+  const GridSpec spec = GridSpec::covering(Vec3d(0, 0, 0), Vec3d(1, 1, 1), {n, n, n});
+  FastMarchingInput in = uniformInput(spec, 1.0f);
+  in.order = order;
+  in.start.assign(spec.size(), std::numeric_limits<float>::infinity());
+  const Vec3d c(0.31, 0.42, 0.53);
+  const double r0 = 0.2;
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        const double d = (spec.center(i, j, k) - c).norm();
+        if (d <= r0) in.start[spec.index(i, j, k)] = static_cast<float>(d);
+      }
+  const Grid3<float> C = swarmsim::fastMarching(in);
+  double maxErr = 0.0, sumErr = 0.0;
+  std::size_t count = 0;
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        const double d = (spec.center(i, j, k) - c).norm();
+        if (d <= r0) continue;
+        const double e = std::abs(C.at(i, j, k) - d);
+        maxErr = std::max(maxErr, e);
+        sumErr += e;
+        ++count;
+      }
+  return {maxErr, sumErr / static_cast<double>(count)};
+}
+}  // namespace
+
+TEST_CASE("Fast marching, second order: errors from a point at 64^3 and 128^3", "[fields]") {
+  // measured (in cells): first order max 2.11 / 2.48, mean 1.23 / 1.47; second order max 0.621 / 0.621,
+  // mean 0.407 / 0.398 at 64^3 / 128^3. Issue 14 quotes scikit-fmm's order 2 at 128^3 from a point as
+  // max 0.62, mean 0.41 cells (the error near a point source is first order for any scheme)
+  for (int n : {64, 128}) {
+    const auto [max1, mean1] = pointSourceError(n, 1);
+    const auto [max2, mean2] = pointSourceError(n, 2);
+    INFO(n << "^3, in cells: first order max " << max1 << " mean " << mean1 << "; second order max " << max2
+           << " mean " << mean2);
+    CHECK(max2 < 0.63);
+    CHECK(mean2 < 0.41);
+    CHECK(max2 < max1 / 3.0);
+    CHECK(mean2 < mean1 / 3.0);
+  }
+}
+
+TEST_CASE("Fast marching, second order: converges at second order on a smooth solution", "[fields]") {
+  // distance from a point outside a ball of radius 0.2 about it, whose cells start exact: no singularity.
+  // Measured max errors 32^3 / 64^3 / 128^3: first order 0.0292, 0.0146, 0.0073 (halved per doubling);
+  // second order 0.00291, 0.000658, 0.000164 (quartered)
+  double last1 = 0.0, last2 = 0.0, lastMean2 = 0.0;
+  for (int n : {32, 64, 128}) {
+    const auto [max1, mean1] = smoothError(n, 1);
+    const auto [max2, mean2] = smoothError(n, 2);
+    INFO(n << "^3: first order max " << max1 << " mean " << mean1 << "; second order max " << max2 << " mean "
+           << mean2);
+    CHECK(max2 < max1 / 8.0);
+    if (n > 32) {
+      CHECK(last1 / max1 > 1.8);  // first order: about 2 per doubling
+      CHECK(last1 / max1 < 2.5);
+      CHECK(last2 / max2 > 3.5);  // second order: about 4
+      CHECK(lastMean2 / mean2 > 3.5);
+    }
+    last1 = max1;
+    last2 = max2;
+    lastMean2 = mean2;
+  }
+  CHECK(last2 < 2e-4);
+}
+
+TEST_CASE("Fast marching: start values and order are checked", "[fields]") {
+  const GridSpec spec = GridSpec::covering(Vec3d(0, 0, 0), Vec3d(1, 1, 1), {8, 8, 8});
+  FastMarchingInput in = uniformInput(spec, 1.0f);
+  in.goal[0] = 1;
+  in.order = 3;
+  CHECK_THROWS_AS(swarmsim::fastMarching(in), std::invalid_argument);
+  in.order = 2;
+  in.start.assign(5, 0.0f);
+  CHECK_THROWS_AS(swarmsim::fastMarching(in), std::invalid_argument);
+  in.start.assign(spec.size(), std::numeric_limits<float>::quiet_NaN());
+  in.start[spec.index(7, 7, 7)] = -1.0f;
+  CHECK_THROWS_AS(swarmsim::fastMarching(in), std::invalid_argument);
+  // a start value is kept even where the front would arrive lower (it is taken as known)
+  in.start[spec.index(7, 7, 7)] = 0.25f;
+  const Grid3<float> C = swarmsim::fastMarching(in);
+  CHECK(C.at(7, 7, 7) == 0.25f);
+  CHECK(C.at(6, 7, 7) <= 0.25f + 0.125f + 1e-6f);
+}

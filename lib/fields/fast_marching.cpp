@@ -107,6 +107,11 @@ void validate(const FastMarchingInput& in) {
   const double padded = (s.n[0] + 2.0) * (s.n[1] + 2.0) * (s.n[2] + 2.0);
   if (padded > static_cast<double>(std::numeric_limits<std::int32_t>::max()))
     throw std::invalid_argument("fastMarching: grid too large");
+  if (in.order != 1 && in.order != 2) throw std::invalid_argument("fastMarching: order must be 1 or 2");
+  if (!in.start.empty() && in.start.size() != s.size())
+    throw std::invalid_argument("fastMarching: start needs " + std::to_string(s.size()) + " values or none");
+  for (const float v : in.start)
+    if (v < 0.0f) throw std::invalid_argument("fastMarching: a start value is negative");
   if (in.cost.size() != s.size() || in.goal.size() != s.size())
     throw std::invalid_argument("fastMarching: cost and goal need " + std::to_string(s.size()) + " values (got " +
                                 std::to_string(in.cost.size()) + " and " + std::to_string(in.goal.size()) + ")");
@@ -122,14 +127,14 @@ Grid3<float> fastMarching(const FastMarchingInput& input) {
   const GridSpec& spec = input.spec;
   const int nx = spec.n[0], ny = spec.n[1], nz = spec.n[2];
 
-  // padded grid: a layer of impassable, accepted cells around the grid removes all bounds
-  // checks; impassable cells are accepted at +inf from the start
-  const std::size_t px = static_cast<std::size_t>(nx) + 2, py = static_cast<std::size_t>(ny) + 2,
-                    pz = static_cast<std::size_t>(nz) + 2;
+  // padded grid: two layers of impassable, accepted cells around the grid remove all bounds
+  // checks (second order reads two cells away); impassable cells are accepted at +inf from the start
+  const std::size_t px = static_cast<std::size_t>(nx) + 4, py = static_cast<std::size_t>(ny) + 4,
+                    pz = static_cast<std::size_t>(nz) + 4;
   std::vector<CellState> cells(px * py * pz, CellState{kInf, kInf, kKnown});
   auto paddedIndex = [&](int i, int j, int k) {
-    return (static_cast<std::size_t>(k + 1) * py + static_cast<std::size_t>(j + 1)) * px +
-           static_cast<std::size_t>(i + 1);
+    return (static_cast<std::size_t>(k + 2) * py + static_cast<std::size_t>(j + 2)) * px +
+           static_cast<std::size_t>(i + 2);
   };
   for (int k = 0; k < nz; ++k)
     for (int j = 0; j < ny; ++j)
@@ -139,55 +144,64 @@ Grid3<float> fastMarching(const FastMarchingInput& input) {
         if (std::isfinite(c.cost)) c.slot = kFar;
       }
 
-  // neighbour offsets, spacings h, weights w = 1/h^2, and 1/Σw for each pair of axes
-  // (indexed by the axis left out) and for all three
+  // neighbour offsets, spacings h and weights w = 1/h^2
   const std::size_t stride[3] = {1, px, px * py};
   double h[3], w[3];
   for (int a = 0; a < 3; ++a) {
     h[a] = spec.cell[a];
     w[a] = 1.0 / (h[a] * h[a]);
   }
-  const double invPair[3] = {1.0 / (w[1] + w[2]), 1.0 / (w[0] + w[2]), 1.0 / (w[0] + w[1])};
-  const double invAll = 1.0 / (w[0] + w[1] + w[2]);
+  const bool second = input.order == 2;
 
   // the upwind update of cell p from its accepted neighbours
   auto solve = [&](std::size_t p) -> float {
-    // smallest accepted value per axis, sorted with its axis in increasing order
-    float m[3];
-    int ax[3] = {0, 1, 2};
-    for (int a = 0; a < 3; ++a) m[a] = std::min(cells[p - stride[a]].val, cells[p + stride[a]].val);
+    // per axis: the value the difference is taken from (m_a, or (4 m_a − m'_a)/3 at second order) and the
+    // term's weight (w_a, or 9/4 w_a); then sorted by value
+    double m[3], wt[3];
+    for (int a = 0; a < 3; ++a) {
+      const float lo = cells[p - stride[a]].val, hi = cells[p + stride[a]].val;
+      const bool low = lo <= hi;
+      const float m1 = low ? lo : hi;
+      m[a] = static_cast<double>(m1);
+      wt[a] = w[a];
+      if (second && m1 < kInf) {
+        const float m2 = low ? cells[p - 2 * stride[a]].val : cells[p + 2 * stride[a]].val;
+        if (m2 <= m1) {  // accepted (finite) and decreasing toward the front
+          m[a] = (4.0 * static_cast<double>(m1) - static_cast<double>(m2)) / 3.0;
+          wt[a] = 2.25 * w[a];
+        }
+      }
+    }
     auto order = [&](int a, int b) {
       if (m[b] < m[a]) {
         std::swap(m[a], m[b]);
-        std::swap(ax[a], ax[b]);
+        std::swap(wt[a], wt[b]);
       }
     };
     order(0, 1);
     order(1, 2);
     order(0, 1);
-    // one axis: C = m0 + h f. Take in the next axis while C exceeds its value; in
+    // one axis: C = m0 + f / sqrt(w0). Take in the next axis while C exceeds its value; in
     // τ = C − m0, δ_a = m_a − m0 the equation Σ_a w_a (τ − δ_a)^2 = f^2 has the root
     // τ = (Σ w δ + sqrt((Σ w δ)^2 − Σw (Σ w δ^2 − f^2))) / Σw. A negative discriminant or a
     // root not above δ (rounding only) keeps the solution with fewer axes.
     const double f = static_cast<double>(cells[p].cost);
-    const double base = static_cast<double>(m[0]);
-    double tau = h[ax[0]] * f;
-    const double d1 = static_cast<double>(m[1]) - base;
-    if (!(tau > d1)) return static_cast<float>(base + tau);  // also when m1 = +inf
-    double swd = w[ax[1]] * d1, swdd = w[ax[1]] * d1 * d1;
-    double disc = swd * swd - (w[ax[0]] + w[ax[1]]) * (swdd - f * f);
-    if (disc < 0.0) return static_cast<float>(base + tau);
-    const double t2 = (swd + std::sqrt(disc)) * invPair[ax[2]];
-    if (!(t2 > d1)) return static_cast<float>(base + tau);
-    tau = t2;
-    const double d2 = static_cast<double>(m[2]) - base;
-    if (!(tau > d2)) return static_cast<float>(base + tau);
-    swd += w[ax[2]] * d2;
-    swdd += w[ax[2]] * d2 * d2;
-    disc = swd * swd - (w[0] + w[1] + w[2]) * (swdd - f * f);
-    if (disc < 0.0) return static_cast<float>(base + tau);
-    const double t3 = (swd + std::sqrt(disc)) * invAll;
-    if (t3 > d2) tau = t3;
+    const double base = m[0];
+    double tau = f / std::sqrt(wt[0]);
+    double sw = wt[0], swd = 0.0, swdd = 0.0;
+    for (int a = 1; a < 3; ++a) {
+      const double d = m[a] - base;
+      if (!(tau > d)) break;  // also when m_a = +inf
+      const double nsw = sw + wt[a], nswd = swd + wt[a] * d, nswdd = swdd + wt[a] * d * d;
+      const double disc = nswd * nswd - nsw * (nswdd - f * f);
+      if (disc < 0.0) break;
+      const double t = (nswd + std::sqrt(disc)) / nsw;
+      if (!(t > d)) break;
+      tau = t;
+      sw = nsw;
+      swd = nswd;
+      swdd = nswdd;
+    }
     return static_cast<float>(base + tau);
   };
 
@@ -206,6 +220,26 @@ Grid3<float> fastMarching(const FastMarchingInput& input) {
         if (cells[p].slot == kFar) heap.push(static_cast<std::uint32_t>(p), 0.0f);
       }
 
+  // cells with a start value enter the heap with it (a goal cell keeps 0) and keep it: no update lowers it
+  std::vector<std::uint8_t> fixedCell;
+  if (!input.start.empty()) {
+    fixedCell.assign(cells.size(), 0);
+    for (int k = 0; k < nz; ++k)
+      for (int j = 0; j < ny; ++j)
+        for (int i = 0; i < nx; ++i) {
+          const float v = input.start[spec.index(i, j, k)];
+          if (!(v < kInf) || input.goal[spec.index(i, j, k)]) continue;
+          const std::size_t p = paddedIndex(i, j, k);
+          fixedCell[p] = 1;
+          if (cells[p].slot == kKnown) cells[p].slot = kFar;  // impassable: as for goals, a start value wins
+          if (cells[p].slot == kFar) {
+            heap.push(static_cast<std::uint32_t>(p), v);
+          } else if (v < heap.keyAt(cells[p].slot)) {
+            heap.decrease(cells[p].slot, static_cast<std::uint32_t>(p), v);
+          }
+        }
+  }
+
   // accept the smallest tentative value, then update its unaccepted neighbours
   while (!heap.empty()) {
     const std::uint64_t top = heap.pop();
@@ -215,7 +249,7 @@ Grid3<float> fastMarching(const FastMarchingInput& input) {
     for (int a = 0; a < 3; ++a) {
       for (const std::size_t q : {c - stride[a], c + stride[a]}) {
         const std::int32_t s = cells[q].slot;
-        if (s == kKnown) continue;
+        if (s == kKnown || (!fixedCell.empty() && fixedCell[q])) continue;
         const float t = solve(q);
         if (s == kFar) {
           heap.push(static_cast<std::uint32_t>(q), t);

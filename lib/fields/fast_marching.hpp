@@ -5,13 +5,16 @@
 //   |∇C(x)| = f(x),  C = 0 on the goal cells                                       (eq. 7)
 //   V_g = −∇C / |∇C| · s0                                                            (eq. 8)
 //
-// C is solved on a cell-centred grid with spacing (hx, hy, hz) by first-order upwind
-// differences: for a cell with smallest accepted neighbour values m_a along each axis a,
-//   Σ_a (max(C − m_a, 0) / h_a)^2 = f^2,
-// solved with the axes taken in increasing m_a, adding an axis only while the current
-// solution exceeds its m_a (a 1-axis solution is m_0 + h_0 f). Cells are accepted in
-// increasing C through a binary min-heap with decrease-key, as in Dijkstra's algorithm.
-// The solver is serial and deterministic.
+// C is solved on a cell-centred grid with spacing (hx, hy, hz) by upwind differences: for
+// a cell with smallest accepted neighbour value m_a along each axis a (on the side of the
+// smaller one),
+//   first order:  Σ_a (max(C − m_a, 0) / h_a)^2 = f^2;
+//   second order (order 2, along axes whose second cell on that side, m'_a, is accepted and
+//   m'_a <= m_a): the one-sided difference (3C − 4m_a + m'_a) / (2 h_a), that is the term
+//   (9/4) (max(C − (4m_a − m'_a)/3, 0) / h_a)^2;
+// solved with the axes taken in increasing value, adding an axis only while the current
+// solution exceeds its value. Cells are accepted in increasing C through a binary min-heap
+// with decrease-key, as in Dijkstra's algorithm. The solver is serial and deterministic.
 #include <cstdint>
 #include <vector>
 
@@ -24,6 +27,12 @@ struct FastMarchingInput {
   GridSpec spec;
   std::vector<float> cost;         // f per cell (spec.size(), ≥ 0); +inf = impassable (obstacle)
   std::vector<std::uint8_t> goal;  // per cell (spec.size()): 1 = goal cell, C = 0
+  // optional (empty, or spec.size()): cells with a finite value start with that C, like goal cells (for
+  // example exact distances next to a smooth goal surface); NaN or +inf: none
+  std::vector<float> start;
+  // 1: first-order upwind differences; 2: second order where the two cells upwind along an axis are
+  // accepted and decrease toward the front (Sethian 1999), first order elsewhere
+  int order = 1;
 };
 
 // C per cell; cells that cannot be reached from a goal (sealed off, or impassable) are +inf.

@@ -82,6 +82,7 @@ class FieldModel final : public Model {
     t0 = Clock::now();
     const double diag = costSpec_.cell.norm();  // a: the cell diagonal (3-D)
     fmmIn_.spec = costSpec_;
+    fmmIn_.order = p_.costOrder;
     fmmIn_.cost.resize(costSpec_.size());
     parallelFor(fmmIn_.cost.size(), [&](std::size_t c) {
       const float phi = sdfCost.data[c];
@@ -463,6 +464,7 @@ FieldParams readFieldParams(JsonReader& r, const ModelContext& context) {
   if (static_cast<double>(p.costCells[0]) * p.costCells[1] * p.costCells[2] > 64e6) {
     r.fail("cost_cells", "more than 64 million cells");
   }
+  p.costOrder = static_cast<int>(r.integer("cost_order", p.costOrder, 1, 2));
   const Vec3d costCell = dom.extent().cwiseQuotient(Vec3d(p.costCells[0], p.costCells[1], p.costCells[2]));
   const double unit = costCell.minCoeff();
   {

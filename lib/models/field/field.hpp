@@ -49,6 +49,7 @@ enum class MdePairs { kNeighbours, kSameCell };
 struct FieldParams {
   double speed = 1.5;                       // s0, m/s
   std::array<int, 3> costCells = {0, 0, 0};  // cost grid over the domain (required)
+  int costOrder = 1;                        // fast marching's order of accuracy (1 or 2; fast_marching.hpp)
   NoiseKind noise = NoiseKind::kCurl;
   double scale = 0.4;                       // noise frequency per cost cell
   double gain = 0.25;                       // noise speed scale, m/s
