@@ -6,7 +6,8 @@
 #   scripts/setup.sh           the packages to build and run swarmsim (and its Python scripts)
 #   scripts/setup.sh --tools   also the programs that read our output, for their tests and
 #                              scripts (docs/tools.md): ParaView, Blender, ffmpeg, and Xvfb (an X server
-#                              without a screen) for ParaView's renders, pandas for the Python examples
+#                              without a screen) for ParaView's renders, pandas for the Python examples,
+#                              scikit-fmm to compare our fast marching with (scripts/fmm_compare.py)
 set -euo pipefail
 tools=0
 if [ "${1:-}" = "--tools" ]; then tools=1; shift; fi
@@ -17,7 +18,7 @@ packages=(build-essential cmake pkg-config libcli11-dev nlohmann-json3-dev libhd
           hdf5-tools libeigen3-dev libtinyobjloader-dev catch2 libnanoflann-dev libssl-dev libpagmo-dev python3 python3-h5py
           python3-matplotlib)
 if [ "$tools" = 1 ]; then
-  packages+=(paraview python3-paraview blender ffmpeg xvfb xauth python3-pandas)
+  packages+=(paraview python3-paraview blender ffmpeg xvfb xauth python3-pandas python3-scikit-fmm)
 fi
 missing=()
 for p in "${packages[@]}"; do
