@@ -322,6 +322,20 @@ TEST_CASE("Plain Perlin velocity is gain times the three noises", "[fields]") {
   CHECK_THROWS_AS(swarmsim::perlinVelocity(spec, bad), std::invalid_argument);
 }
 
+namespace {
+// fast marching at `order` on the unit cube in n^3 cells, cost 1, from one goal cell: the cell holding
+// (0.3, 0.4, 0.55); also gives that cell's centre, from which C should be the Euclidean distance
+Grid3<float> pointSource(int n, int order, Vec3d& goal) {
+  const GridSpec spec = GridSpec::covering(Vec3d(0, 0, 0), Vec3d(1, 1, 1), {n, n, n});
+  FastMarchingInput in = uniformInput(spec, 1.0f);
+  in.order = order;
+  const auto g = spec.cellOf(Vec3d(0.3, 0.4, 0.55));
+  in.goal[spec.index(g[0], g[1], g[2])] = 1;
+  goal = spec.center(g[0], g[1], g[2]);
+  return swarmsim::fastMarching(in);
+}
+}  // namespace
+
 TEST_CASE("Fast marching from a point converges to the Euclidean distance", "[fields]") {
   // unit box, goal at the cell holding (0.3, 0.4, 0.55); errors against |x - goal centre|.
   // Measured (first-order scheme, the largest errors are along the diagonals):
@@ -330,12 +344,9 @@ TEST_CASE("Fast marching from a point converges to the Euclidean distance", "[fi
   // source is several cells, and shrinks about like h log(1/h))
   double lastMax = 1e9, lastMean = 1e9;
   for (int n : {16, 32, 64}) {
-    const GridSpec spec = GridSpec::covering(Vec3d(0, 0, 0), Vec3d(1, 1, 1), {n, n, n});
-    FastMarchingInput in = uniformInput(spec, 1.0f);
-    const auto g = spec.cellOf(Vec3d(0.3, 0.4, 0.55));
-    in.goal[spec.index(g[0], g[1], g[2])] = 1;
-    const Vec3d goal = spec.center(g[0], g[1], g[2]);
-    const Grid3<float> C = swarmsim::fastMarching(in);
+    Vec3d goal;
+    const Grid3<float> C = pointSource(n, 1, goal);
+    const GridSpec& spec = C.spec;
     double maxErr = 0.0, sumErr = 0.0;
     for (int k = 0; k < n; ++k)
       for (int j = 0; j < n; ++j)
@@ -533,13 +544,9 @@ namespace {
 // max and mean of C − |x − c| over the cells (in cells of the grid's edge), C from a point goal at the centre
 // of the cell holding c, at the given order
 std::pair<double, double> pointSourceError(int n, int order) {
-  const GridSpec spec = GridSpec::covering(Vec3d(0, 0, 0), Vec3d(1, 1, 1), {n, n, n});
-  FastMarchingInput in = uniformInput(spec, 1.0f);
-  in.order = order;
-  const auto g = spec.cellOf(Vec3d(0.3, 0.4, 0.55));
-  in.goal[spec.index(g[0], g[1], g[2])] = 1;
-  const Vec3d goal = spec.center(g[0], g[1], g[2]);
-  const Grid3<float> C = swarmsim::fastMarching(in);
+  Vec3d goal;
+  const Grid3<float> C = pointSource(n, order, goal);
+  const GridSpec& spec = C.spec;
   double maxErr = 0.0, sumErr = 0.0;
   for (int k = 0; k < n; ++k)
     for (int j = 0; j < n; ++j)
