@@ -172,7 +172,7 @@ class ShapeModel final : public Model {
     info["ms_mde"] = 1e3 * tMde_ / steps;
     info["theta"] = p_.theta;
     info["neighbours"] = p_.neighbours;
-    info["list_rebuilds"] = static_cast<double>(rebuilds_) / (steps * static_cast<double>(std::max<std::size_t>(1, lastCount_)));
+    info["list_rebuilds"] = static_cast<double>(rebuilds_) / (steps * static_cast<double>(std::max<std::size_t>(1, speed_.size())));
     info["max_speed"] = p_.maxSpeed;
     return info;
   }
@@ -207,7 +207,6 @@ class ShapeModel final : public Model {
 
   void step(const World& world, SwarmState& s, const StepInfo& info) override {
     const std::size_t n = s.size();
-    lastCount_ = n;
     const double t = info.time;
     const float dt = static_cast<float>(world.dt);
 
@@ -740,8 +739,7 @@ class ShapeModel final : public Model {
   SwarmState next_;
   std::size_t frameMoved_ = 0, frameAgentSteps_ = 0, timedSteps_ = 0;
   double tDistance_ = 0.0, tNoise_ = 0.0, tSampling_ = 0.0, tAssignment_ = 0.0;
-  std::size_t rebuilds_ = 0;   // near lists built from the grid in the timed steps
-  std::size_t lastCount_ = 0;  // insects of the last step
+  std::size_t rebuilds_ = 0;  // near lists built from the grid in the timed steps
   double tInteraction_ = 0.0, tForces_ = 0.0, tMde_ = 0.0;
 };
 
