@@ -1,10 +1,11 @@
 #pragma once
 // The shape model's per-insect sums over its near neighbours, eight lanes at a
 // time (core/lanes.hpp: AVX or SSE chosen at run time, the same bits either
-// way). Every sum runs over its entries in the order given (the callers give
-// them in ascending sorted position, which depends only on the positions) with
-// entry e in lane e % 8, and the lanes are added 0..7: so the result depends on
-// the data only, never on threads or the instruction set.
+// way). Every sum runs over its entries in the order given (the shape model
+// gives only the entries that count, in id order: near_list.hpp) with entry e
+// in lane e % 8, and the lanes are added in a fixed order (0..7 for F_con, a
+// fixed tree for F_int): so the result depends on the data only, never on
+// threads or the instruction set.
 #include <cstddef>
 #include <cstdint>
 #include <vector>
