@@ -204,12 +204,37 @@ struct ScalarLanes {
 };
 
 
+// the sum of a vector's lanes in a fixed tree order, (l0 + l4) + (l2 + l6) + ((l1 + l5) + (l3 + l7)), the same
+// bits for every lane type
+template <typename L>
+__attribute__((always_inline)) inline float treeSum(typename L::V x) {
+  alignas(16) float f[4];
+  L::fold4(x, f);
+  return (f[0] + f[2]) + (f[1] + f[3]);
+}
+
+// 0, 1, ..., 7: lt(load(kLaneIndex), set1(c)) is the mask of lanes 0..c-1
+alignas(32) inline constexpr float kLaneIndex[kLanes] = {0.0f, 1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f, 7.0f};
+
 inline bool useAvx() {
 #if SWARMSIM_X86_LANES
   static const bool avx = __builtin_cpu_supports("avx");
   return avx && !std::getenv("SWARMSIM_NO_AVX");
 #else
   return false;
+#endif
+}
+
+// the widest lanes this CPU has, for kernels with an AVX2 variant (SWARMSIM_NO_AVX=1: SSE; SWARMSIM_NO_AVX2=1:
+// AVX at most). Every variant of a kernel gives the same bits.
+enum class LaneSet { kSse, kAvx, kAvx2 };
+inline LaneSet laneSet() {
+#if SWARMSIM_X86_LANES
+  if (!useAvx()) return LaneSet::kSse;
+  static const bool avx2 = __builtin_cpu_supports("avx2");
+  return avx2 && !std::getenv("SWARMSIM_NO_AVX2") ? LaneSet::kAvx2 : LaneSet::kAvx;
+#else
+  return LaneSet::kSse;
 #endif
 }
 

@@ -120,15 +120,19 @@ void UniformGrid::build(const float* x, const float* y, const float* z, std::siz
 }
 
 void UniformGrid::gatherCell(std::size_t c, float r, CellBlock& block) const {
+  int lo[3], hi[3];
+  cellBox(c, r, lo, hi);
+  gatherBox(lo, hi, block);
+}
+
+void UniformGrid::cellBox(std::size_t c, float r, int lo[3], int hi[3]) const {
   const int cell[3] = {static_cast<int>(c % dims_[0]), static_cast<int>((c / dims_[0]) % dims_[1]),
                        static_cast<int>(c / (static_cast<std::size_t>(dims_[0]) * dims_[1]))};
-  int lo[3], hi[3];
   for (int a = 0; a < 3; ++a) {
     const int span = spanFor(r, a);
     lo[a] = std::max(0, cell[a] - span);
     hi[a] = std::min(dims_[a] - 1, cell[a] + span);
   }
-  gatherBox(lo, hi, block);
 }
 
 void UniformGrid::gatherAround(float qx, float qy, float qz, float r, CellBlock& block) const {

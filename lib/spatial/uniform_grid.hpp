@@ -138,6 +138,22 @@ class UniformGrid {
     }
   }
 
+  // call f(begin, end) for each run [begin, end) of sorted positions that can hold points within r of some
+  // point of cell c (the rows gatherCell would gather, in the same order; rows may be empty). For every point
+  // q of cell c, forEachRun(q, r) visits a subset of these rows (with their runs cut to fewer cells), in this
+  // order.
+  template <typename F>
+  void forEachCellRun(std::size_t c, float r, F&& f) const {
+    int lo[3], hi[3];
+    cellBox(c, r, lo, hi);
+    for (int cz = lo[2]; cz <= hi[2]; ++cz) {
+      for (int cy = lo[1]; cy <= hi[1]; ++cy) {
+        const std::size_t row = (static_cast<std::size_t>(cz) * dims_[1] + cy) * dims_[0];
+        f(start_[row + lo[0]], start_[row + hi[0] + 1]);
+      }
+    }
+  }
+
   // call f(k, dx, dy, dz, d2) for every sorted point k with d2 = |p_k - q|^2 <= r^2,
   // where (dx, dy, dz) = p_k - q. Includes the query point itself if it is a
   // grid point (d2 = 0). Any r works; r <= minCell visits at most 27 cells.
@@ -156,6 +172,8 @@ class UniformGrid {
   }
 
  private:
+  // the box of cells (inclusive) that can hold points within r of some point of cell c
+  void cellBox(std::size_t c, float r, int lo[3], int hi[3]) const;
   // gather the points of cells lo..hi (inclusive) into block
   void gatherBox(const int lo[3], const int hi[3], CellBlock& block) const;
   // cells to search on each side for radius r. Cell coordinates are computed

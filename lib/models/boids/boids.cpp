@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/lanes.hpp"
 #include "core/parallel.hpp"
 #include "core/rng.hpp"
+#include "models/boids/boids_kernel.hpp"
 #include "spatial/uniform_grid.hpp"
 
 namespace swarmsim {
@@ -42,13 +44,19 @@ class Boids final : public Model {
     // the grid (one rebuild per step), then unit velocities in cell order
     grid_.build(s.px.data(), s.py.data(), s.pz.data(), n, r3_);
     const auto& order = grid_.order();
-    for (auto* a : {&sux_, &suy_, &suz_}) a->resize(n);
+    lanes_.resize(n);
     next_.resizeStorage(n);
+    const float* gx = grid_.sortedX().data();
+    const float* gy = grid_.sortedY().data();
+    const float* gz = grid_.sortedZ().data();
     parallelFor(n, [&](std::size_t k) {
       const Vec3 u = normalizedOrZero(s.velocity(order[k]));
-      sux_[k] = u.x();
-      suy_[k] = u.y();
-      suz_[k] = u.z();
+      lanes_.x[k] = gx[k];
+      lanes_.y[k] = gy[k];
+      lanes_.z[k] = gz[k];
+      lanes_.ux[k] = u.x();
+      lanes_.uy[k] = u.y();
+      lanes_.uz[k] = u.z();
     });
 
     const float dt = static_cast<float>(world.dt);
@@ -60,33 +68,17 @@ class Boids final : public Model {
     const Vec3 dmin = world.domain.min.cast<float>(), dmax = world.domain.max.cast<float>();
     const float margin = static_cast<float>(p_.wallMargin);
 
-    // phase 1: every new velocity from the old state. Work goes cell by cell:
-    // the candidates of a cell are gathered once and scanned by each of its agents.
-    const float* sx = grid_.sortedX().data();
-    const float* sy = grid_.sortedY().data();
-    const float* sz = grid_.sortedZ().data();
-    const float r1sq = r1_ * r1_, r2sq = r2_ * r2_;
+    // phase 1: every new velocity from the old state. Each agent scans the grid rows about it, eight
+    // candidates at a time (boids_kernel.hpp)
+    const BoidsZones zones = {r1_ * r1_, r2_ * r2_, r3_ * r3_, cosHalfFov_};
     const float smin = static_cast<float>(p_.speed), smax = static_cast<float>(p_.maxSpeed);
-    forEachPointNeighbors(grid_, r3_, blocks_, [&](std::uint32_t k, const CellBlock& block, std::size_t hits) {
+    const LaneSet laneKind = laneSet();
+    scratch_.resize(static_cast<std::size_t>(threadCount()));
+    const auto agent = [&](std::size_t k, const float sums[9]) {
       const std::uint32_t i = order[k];
-      const Vec3 x(sx[k], sy[k], sz[k]), v = s.velocity(i);
-      const Vec3 vhat(sux_[k], suy_[k], suz_[k]);
-      Vec3 rep = Vec3::Zero(), ali = Vec3::Zero(), att = Vec3::Zero();
-      for (std::size_t h = 0; h < hits; ++h) {
-        const std::uint32_t b = block.hits[h];
-        const std::uint32_t j = block.index[b];
-        const float d2 = block.d2[b];
-        if (j == k || d2 <= 0.0f) continue;  // itself, or coincident (no direction)
-        const float inv = 1.0f / std::sqrt(d2);
-        const Vec3 dir((block.x[b] - x.x()) * inv, (block.y[b] - x.y()) * inv, (block.z[b] - x.z()) * inv);
-        if (d2 <= r1sq) {
-          rep -= dir;  // away from the neighbour
-        } else if (d2 <= r2sq) {
-          ali += Vec3(sux_[j], suy_[j], suz_[j]);
-        } else if (vhat.dot(dir) >= cosHalfFov_) {
-          att += dir;  // toward the neighbour, if in view
-        }
-      }
+      const Vec3 x(lanes_.x[k], lanes_.y[k], lanes_.z[k]), v = s.velocity(i);
+      const Vec3 vhat(lanes_.ux[k], lanes_.uy[k], lanes_.uz[k]);
+      const Vec3 rep = -Vec3(sums[0], sums[1], sums[2]), ali(sums[3], sums[4], sums[5]), att(sums[6], sums[7], sums[8]);
       Vec3 u = vhat * smin + rep * static_cast<float>(p_.repulsion) + ali * static_cast<float>(p_.alignment) +
                att * static_cast<float>(p_.attraction) +
                centerPull(center - x, invCr) * static_cast<float>(p_.centering);
@@ -121,7 +113,22 @@ class Boids final : public Model {
       next_.px[k] = x.x() + nv.x() * dt;
       next_.py[k] = x.y() + nv.y() * dt;
       next_.pz[k] = x.z() + nv.z() * dt;
-    });
+    };
+    const auto cell = [&](std::size_t c) {
+      const std::uint32_t a0 = grid_.cellBegin(c), a1 = grid_.cellEnd(c);
+      if (a0 == a1) return;
+      BoidsScratch& scratch = scratch_[static_cast<std::size_t>(threadIndex())];
+      if (scratch.sums.size() < a1 - a0) scratch.sums.resize(2 * (a1 - a0));
+      boidsCellSums(grid_, lanes_, c, zones, r3_, laneKind, scratch, scratch.sums.data());
+      for (std::uint32_t k = a0; k < a1; ++k) agent(k, scratch.sums[k - a0].data());
+    };
+    // each agent's work is a whole neighbourhood scan: worth the team from a few hundred agents on
+    if (n < 256) {
+      for (std::size_t c = 0; c < grid_.cellCount(); ++c) cell(c);
+    } else {
+      const std::size_t chunk = std::clamp<std::size_t>(grid_.cellCount() / (16 * scratch_.size()), 1, 64);
+      parallelForDynamic(grid_.cellCount(), chunk, cell);
+    }
     // phase 2: the new state becomes current
     s.swapStorage(next_);
   }
@@ -131,9 +138,9 @@ class Boids final : public Model {
   float r1_, r2_, r3_, cosHalfFov_;
   UniformGrid grid_;
   // scratch, reused every step (no allocation once sized)
-  std::vector<float> sux_, suy_, suz_;  // unit velocities by sorted position
-  SwarmState next_;                     // the state being written in phase 2
-  std::vector<CellBlock> blocks_;       // per-thread neighbour candidates
+  BoidsLanesInput lanes_;  // positions and unit velocities by sorted position
+  SwarmState next_;        // the state being written in phase 2
+  std::vector<BoidsScratch> scratch_;  // per thread
 };
 
 }  // namespace

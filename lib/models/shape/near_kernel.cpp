@@ -68,15 +68,6 @@ inline std::size_t collectLanes(const CellBlock& block, std::uint32_t k, float r
   return m;
 }
 
-// the sum of a vector's lanes in a fixed tree order, (l0 + l4) + (l2 + l6) + ((l1 + l5) + (l3 + l7)), the same
-// bits for every lane type
-template <typename L>
-inline float treeSum(typename L::V x) {
-  alignas(16) float f[4];
-  L::fold4(x, f);
-  return (f[0] + f[2]) + (f[1] + f[3]);
-}
-
 // F_int's zonal sums over m (a multiple of kLanes) entries: out[3 z + a] the sum of zone z's unit vectors
 // (axis a), out[9 + z] how many entries zone z has
 template <typename L>

@@ -1,0 +1,206 @@
+#include "models/boids/boids_kernel.hpp"
+
+#include <algorithm>
+
+#include "core/lanes.hpp"
+
+// gatherLanes<AvxLanes, true> returns an AVX vector from a function without the AVX target; it is only ever
+// inlined into the AVX2 entry (flatten), so no call crosses that ABI boundary
+#pragma GCC diagnostic ignored "-Wpsabi"
+
+namespace swarmsim {
+
+namespace {
+
+constexpr float kTiny = 1e-30f;  // floor of squared lengths: the masked-off lanes stay finite
+
+// indices of the set lanes of each 8-lane mask, in order, for a left-packing permute (the rest: don't care)
+struct PackTable {
+  alignas(32) std::uint32_t lanes[256][kLanes];
+  constexpr PackTable() : lanes() {
+    for (unsigned mask = 0; mask < 256; ++mask) {
+      unsigned n = 0;
+      for (unsigned l = 0; l < kLanes; ++l) {
+        if (mask & (1u << l)) lanes[mask][n++] = l;
+      }
+    }
+  }
+};
+constexpr PackTable kPack;
+
+#if SWARMSIM_X86_LANES
+// the set lanes of j + (0, 1, ..., 7), in order, to out[0, count) (it writes 8 entries)
+__attribute__((target("avx2,popcnt"))) inline void packIndices(std::uint32_t j, unsigned mask, std::uint32_t* out) {
+  const __m256i idx = _mm256_load_si256(reinterpret_cast<const __m256i*>(kPack.lanes[mask]));
+  const __m256i v = _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(j)), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(out), _mm256_permutevar8x32_epi32(v, idx));
+}
+__attribute__((target("avx2,popcnt"))) inline __m256 gather8(const float* base, const std::uint32_t* idx) {
+  return _mm256_i32gather_ps(base, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(idx)), 4);
+}
+#endif
+
+// the values base[idx[0..7]] as lanes
+template <typename L, bool kAvx2>
+inline typename L::V gatherLanes(const float* base, const std::uint32_t* idx) {
+#if SWARMSIM_X86_LANES
+  if constexpr (kAvx2) return {gather8(base, idx)};
+#endif
+  alignas(32) float t[kLanes];
+  for (std::size_t l = 0; l < kLanes; ++l) t[l] = base[idx[l]];
+  return L::load(t);
+}
+
+// the hits idx[first, m) (sorted positions, m - first a multiple of 8 but for the last group) into acc, hit e in
+// lane e % 8 (lanes at or past m in the last group are off; idx has room for whole lanes)
+template <typename L, bool kAvx2>
+inline void addHits(const BoidsLanesInput& in, std::uint32_t* idx, std::size_t m, const typename L::V q[6],
+                    const BoidsZones& z, typename L::V acc[9]) {
+  using V = typename L::V;
+  const V lane = L::load(kLaneIndex), one = L::set1(1.0f), tiny = L::set1(kTiny);
+  const V r1 = L::set1(z.r1sq), r2 = L::set1(z.r2sq), cosFov = L::set1(z.cosHalfFov);
+  for (std::size_t e = 0; e < m; e += kLanes) {
+    for (std::size_t l = m; l < e + kLanes; ++l) idx[l] = idx[e];  // lanes past m: any valid index (masked off)
+    const V live = L::lt(lane, L::set1(static_cast<float>(m - e)));
+    const V dx = L::sub(gatherLanes<L, kAvx2>(in.x.data(), idx + e), q[0]);
+    const V dy = L::sub(gatherLanes<L, kAvx2>(in.y.data(), idx + e), q[1]);
+    const V dz = L::sub(gatherLanes<L, kAvx2>(in.z.data(), idx + e), q[2]);
+    const V d2 = L::add(L::add(L::mul(dx, dx), L::mul(dy, dy)), L::mul(dz, dz));
+    const V inv = L::div(one, L::sqrt(L::max(d2, tiny)));
+    const V ex = L::mul(dx, inv), ey = L::mul(dy, inv), ez = L::mul(dz, inv);
+    const V rep = L::band(live, L::le(d2, r1));
+    const V nearer = L::le(d2, r2);
+    const V ali = L::andnot(rep, L::band(live, nearer));
+    const V dot = L::add(L::add(L::mul(q[3], ex), L::mul(q[4], ey)), L::mul(q[5], ez));
+    const V att = L::band(L::andnot(nearer, live), L::le(cosFov, dot));
+    acc[0] = L::add(acc[0], L::band(rep, ex));
+    acc[1] = L::add(acc[1], L::band(rep, ey));
+    acc[2] = L::add(acc[2], L::band(rep, ez));
+    acc[3] = L::add(acc[3], L::band(ali, gatherLanes<L, kAvx2>(in.ux.data(), idx + e)));
+    acc[4] = L::add(acc[4], L::band(ali, gatherLanes<L, kAvx2>(in.uy.data(), idx + e)));
+    acc[5] = L::add(acc[5], L::band(ali, gatherLanes<L, kAvx2>(in.uz.data(), idx + e)));
+    acc[6] = L::add(acc[6], L::band(att, ex));
+    acc[7] = L::add(acc[7], L::band(att, ey));
+    acc[8] = L::add(acc[8], L::band(att, ez));
+  }
+}
+
+// out[a][0..8] for each agent a0 + a of the cell whose rows are in `cells` (chunks of up to eight sorted
+// positions): the lane-tree sums of rep (before negation), ali and att, axis by axis. Each agent tests the
+// chunks eight candidates at a time for those within R3 (squared distances only); the hits' sorted positions
+// are packed in scan order and summed eight at a time (hit e in lane e % 8), so square roots and divisions go
+// to hits alone. kAvx2: pack with AVX2's lane permute and load hits with its gathers (the same result as the
+// plain loops).
+template <typename L, bool kAvx2>
+inline void boidsLanes(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_t a1, const BoidsScratch& cells,
+                       std::size_t nChunks, const BoidsZones& z, BoidsScratch& h, std::array<float, 9>* out) {
+  using V = typename L::V;
+  const V r3sq = L::set1(z.r3sq), zero = L::set1(0.0f), lane = L::load(kLaneIndex);
+  const float* px = in.x.data();
+  const float* py = in.y.data();
+  const float* pz = in.z.data();
+  const std::uint32_t* chunkStart = cells.chunkStart.data();
+  const float* chunkSize = cells.chunkSize.data();
+  std::uint32_t* hit = h.hits.data();
+  const std::size_t room = h.hits.size() - 2 * kLanes;
+  for (std::uint32_t k = a0; k < a1; ++k) {
+    const V q[6] = {L::set1(px[k]), L::set1(py[k]), L::set1(pz[k]),
+                    L::set1(in.ux[k]), L::set1(in.uy[k]), L::set1(in.uz[k])};
+    V acc[9];
+    for (V& a : acc) a = zero;
+    std::size_t m = 0;
+    // one loop over the cell's chunks (the same trip count for every agent of the cell), no branch on the
+    // hits: a chunk without any packs nothing
+    for (std::size_t c = 0; c < nChunks; ++c) {
+      const std::uint32_t j = chunkStart[c];
+      const V live = L::lt(lane, L::set1(chunkSize[c]));  // lanes inside the run
+      const V dx = L::sub(L::load(px + j), q[0]), dy = L::sub(L::load(py + j), q[1]);
+      const V dz = L::sub(L::load(pz + j), q[2]);
+      const V d2 = L::add(L::add(L::mul(dx, dx), L::mul(dy, dy)), L::mul(dz, dz));
+      unsigned bits = L::mask(L::band(live, L::band(L::le(d2, r3sq), L::gt(d2, zero))));
+#if SWARMSIM_X86_LANES
+      if constexpr (kAvx2) {
+        packIndices(j, bits, hit + m);
+        m += static_cast<std::size_t>(__builtin_popcount(bits));  // one instruction: AVX2 CPUs have POPCNT
+      } else
+#endif
+      {
+        for (; bits; bits &= bits - 1u) hit[m++] = j + static_cast<std::uint32_t>(__builtin_ctz(bits));
+      }
+      if (m >= room) {  // full: sum the whole groups, keep the rest at the start
+        const std::size_t whole = m / kLanes * kLanes;
+        addHits<L, kAvx2>(in, hit, whole, q, z, acc);
+        std::copy(hit + whole, hit + m, hit);
+        m -= whole;
+      }
+    }
+    addHits<L, kAvx2>(in, hit, m, q, z, acc);
+    for (int c = 0; c < 9; ++c) out[k - a0][c] = treeSum<L>(acc[c]);
+  }
+}
+
+#if SWARMSIM_X86_LANES
+#define SWARMSIM_BOIDS_ARGS                                                                               \
+  const BoidsLanesInput &in, std::uint32_t a0, std::uint32_t a1, std::size_t nChunks, const BoidsZones &z, \
+      BoidsScratch &h, std::array<float, 9> *out
+__attribute__((flatten)) void boidsSse(SWARMSIM_BOIDS_ARGS) {
+  boidsLanes<SseLanes, false>(in, a0, a1, h, nChunks, z, h, out);
+}
+SWARMSIM_AVX __attribute__((flatten)) void boidsAvx(SWARMSIM_BOIDS_ARGS) {
+  boidsLanes<AvxLanes, false>(in, a0, a1, h, nChunks, z, h, out);
+}
+__attribute__((target("avx2,popcnt"), flatten)) void boidsAvx2(SWARMSIM_BOIDS_ARGS) {
+  boidsLanes<AvxLanes, true>(in, a0, a1, h, nChunks, z, h, out);
+}
+#undef SWARMSIM_BOIDS_ARGS
+#endif
+
+}  // namespace
+
+void BoidsLanesInput::resize(std::size_t n) {
+  for (auto* a : {&x, &y, &z, &ux, &uy, &uz}) a->resize(n + kPad, 0.0f);
+}
+
+BoidsScratch::BoidsScratch() {
+  hits.resize(kRoom);
+  chunkStart.resize(64);
+  chunkSize.resize(64);
+}
+
+void boidsCellSums(const UniformGrid& grid, const BoidsLanesInput& in, std::size_t cell, const BoidsZones& zones,
+                   float r3, LaneSet lanes, BoidsScratch& scratch, std::array<float, 9>* out) {
+  static_assert(BoidsLanesInput::kPad >= kLanes, "whole-lane loads read up to 7 entries past a run");
+  const std::uint32_t a0 = grid.cellBegin(cell), a1 = grid.cellEnd(cell);
+  if (a0 == a1) return;
+  // the rows that can hold a neighbour of any agent of the cell (grid.forEachRun about each agent visits a
+  // subset of them in the same order; the rest hold no hit), cut into chunks of up to eight
+  std::size_t nChunks = 0;
+  grid.forEachCellRun(cell, r3, [&](std::uint32_t b, std::uint32_t e) {
+    for (std::uint32_t j = b; j < e; j += kLanes) {
+      if (nChunks == scratch.chunkStart.size()) {
+        scratch.chunkStart.resize(2 * nChunks);
+        scratch.chunkSize.resize(2 * nChunks);
+      }
+      scratch.chunkStart[nChunks] = j;
+      scratch.chunkSize[nChunks] = static_cast<float>(std::min<std::uint32_t>(e - j, kLanes));
+      ++nChunks;
+    }
+  });
+#if SWARMSIM_X86_LANES
+  switch (lanes) {
+    case LaneSet::kAvx2:
+      boidsAvx2(in, a0, a1, nChunks, zones, scratch, out);
+      break;
+    case LaneSet::kAvx:
+      boidsAvx(in, a0, a1, nChunks, zones, scratch, out);
+      break;
+    default:
+      boidsSse(in, a0, a1, nChunks, zones, scratch, out);
+  }
+#else
+  (void)lanes;
+  boidsLanes<ScalarLanes, false>(in, a0, a1, nChunks, zones, scratch, out);
+#endif
+}
+
+}  // namespace swarmsim

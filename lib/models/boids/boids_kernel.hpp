@@ -1,0 +1,49 @@
+#pragma once
+// The boids model's neighbour sums, eight candidates at a time (core/lanes.hpp:
+// AVX or SSE chosen at run time, the same bits either way). Each agent scans the
+// grid rows its ball overlaps straight from the sorted arrays (no gathered copy):
+// a row's candidates sit in lanes 0..7, 8..15, ... of its run, the lanes past the
+// run masked off, and each lane keeps its own partial sums, which are added in a
+// fixed tree at the end. The result depends on the positions and velocities
+// only, never on threads or the instruction set.
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "core/lanes.hpp"
+#include "core/vec.hpp"
+#include "spatial/uniform_grid.hpp"
+
+namespace swarmsim {
+
+// the agents in the grid's sorted order: positions and unit velocities, each array padded with kPad entries
+// past the agent count (whole-lane loads read them; their values are masked off)
+struct BoidsLanesInput {
+  static constexpr std::size_t kPad = 8;
+  std::vector<float> x, y, z, ux, uy, uz;
+  void resize(std::size_t n);  // n agents plus the padding (zeros)
+};
+
+// the zones: squared radii R1², R2², R3² and the cosine of half the attraction field of view
+struct BoidsZones {
+  float r1sq, r2sq, r3sq, cosHalfFov;
+};
+
+// per-thread scratch: the hits of one agent, packed (a full buffer is summed and emptied), and a cell's rows
+struct BoidsScratch {
+  static constexpr std::size_t kRoom = 256;
+  std::vector<std::uint32_t> hits;  // sorted positions of one agent's hits, packed
+  std::vector<std::uint32_t> chunkStart;  // a cell's rows in chunks of up to eight: first sorted position
+  std::vector<float> chunkSize;           // and size (as a float, for the lane mask)
+  std::vector<std::array<float, 9>> sums;  // the model's: boidsCellSums' output for one cell
+  BoidsScratch();
+};
+
+// for each agent k of grid cell `cell` (sorted positions cellBegin..cellEnd), sums over the agents j != k within R3
+// (d = p_j − p_k, d̂ = d / |d|, coincident agents skipped), into out[k − cellBegin][0..8]: Σ d̂ over |d| <= R1
+// (repulsion: the caller negates it), Σ û_j over R1 < |d| <= R2, Σ d̂ over R2 < |d| <= R3 with û_k · d̂ >=
+// cos(fov / 2), axis by axis. `lanes`: which instruction set (laneSet(); every one gives the same bits).
+void boidsCellSums(const UniformGrid& grid, const BoidsLanesInput& in, std::size_t cell, const BoidsZones& zones,
+                   float r3, LaneSet lanes, BoidsScratch& scratch, std::array<float, 9>* out);
+
+}  // namespace swarmsim
