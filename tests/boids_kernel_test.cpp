@@ -44,12 +44,9 @@ std::vector<std::array<float, 9>> kernelSums(const Cloud& c, const BoidsZones& z
                                              UniformGrid& grid, BoidsLanesInput& in) {
   const std::size_t n = c.x.size();
   grid.build(c.x.data(), c.y.data(), c.z.data(), n, r3);
-  in.resize(n);
+  in.prepare(grid);
   for (std::size_t k = 0; k < n; ++k) {
     const std::uint32_t i = grid.order()[k];
-    in.x[k] = grid.sortedX()[k];
-    in.y[k] = grid.sortedY()[k];
-    in.z[k] = grid.sortedZ()[k];
     in.ux[k] = c.ux[i];
     in.uy[k] = c.uy[i];
     in.uz[k] = c.uz[i];

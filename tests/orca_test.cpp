@@ -72,9 +72,9 @@ struct Crowd {
   void solve(const Params& p, const swarmsim::orca::Obstacles& obstacles, float dt) {
     const std::size_t n = size();
     grid.build(x.data(), y.data(), z.data(), n, std::max(p.neighborDistance, 1e-3f));
-    x = grid.sortedX();
-    y = grid.sortedY();
-    z = grid.sortedZ();
+    x.assign(grid.sortedX().begin(), grid.sortedX().begin() + static_cast<std::ptrdiff_t>(n));
+    y.assign(grid.sortedY().begin(), grid.sortedY().begin() + static_cast<std::ptrdiff_t>(n));
+    z.assign(grid.sortedZ().begin(), grid.sortedZ().begin() + static_cast<std::ptrdiff_t>(n));
     for (auto* v : {&vx, &vy, &vz, &gx, &gy, &gz}) permute(*v);
     tmpId.resize(n);
     for (std::size_t k = 0; k < n; ++k) tmpId[k] = id[grid.order()[k]];

@@ -1,5 +1,6 @@
 #include "spatial/uniform_grid.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -108,9 +109,10 @@ void UniformGrid::build(const float* x, const float* y, const float* z, std::siz
     next.assign(start_.begin(), start_.end() - 1);
     for (std::size_t i = 0; i < n; ++i) order_[next[cell_[i]]++] = static_cast<std::uint32_t>(i);
   }
-  sx_.resize(n);
-  sy_.resize(n);
-  sz_.resize(n);
+  for (auto* a : {&sx_, &sy_, &sz_}) {
+    a->resize(n + kSortedPad);
+    std::fill(a->begin() + static_cast<std::ptrdiff_t>(n), a->end(), 0.0f);
+  }
   parallelFor(n, [&](std::size_t k) {
     const std::uint32_t i = order_[k];
     sx_[k] = x[i];

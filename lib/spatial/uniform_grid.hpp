@@ -90,6 +90,9 @@ class UniformGrid {
   std::size_t size() const { return order_.size(); }
   // sorted position k -> original point index
   const std::vector<std::uint32_t>& order() const { return order_; }
+  // positions in sorted order: entries 0..size()-1, then kSortedPad entries (zero) so that kernels may load
+  // whole lanes of up to 8 floats from any k < size() (mask off the lanes past size())
+  static constexpr std::size_t kSortedPad = 8;
   const std::vector<float>& sortedX() const { return sx_; }
   const std::vector<float>& sortedY() const { return sy_; }
   const std::vector<float>& sortedZ() const { return sz_; }
@@ -196,7 +199,7 @@ class UniformGrid {
   std::vector<std::uint32_t> start_;             // first sorted position of each cell (cells + 1)
   std::vector<std::uint32_t> order_;             // sorted position -> point index (n)
   std::vector<std::uint32_t> cursor_;            // scratch for the counting sort (cells)
-  std::vector<float> sx_, sy_, sz_;              // positions in sorted order (n)
+  std::vector<float> sx_, sy_, sz_;              // positions in sorted order (n + kSortedPad)
   std::vector<std::array<float, 7>> bboxParts_;  // per-chunk bounding boxes (build scratch)
 };
 

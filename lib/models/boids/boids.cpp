@@ -44,16 +44,10 @@ class Boids final : public Model {
     // the grid (one rebuild per step), then unit velocities in cell order
     grid_.build(s.px.data(), s.py.data(), s.pz.data(), n, r3_);
     const auto& order = grid_.order();
-    lanes_.resize(n);
+    lanes_.prepare(grid_);
     next_.resizeStorage(n);
-    const float* gx = grid_.sortedX().data();
-    const float* gy = grid_.sortedY().data();
-    const float* gz = grid_.sortedZ().data();
     parallelFor(n, [&](std::size_t k) {
       const Vec3 u = normalizedOrZero(s.velocity(order[k]));
-      lanes_.x[k] = gx[k];
-      lanes_.y[k] = gy[k];
-      lanes_.z[k] = gz[k];
       lanes_.ux[k] = u.x();
       lanes_.uy[k] = u.y();
       lanes_.uz[k] = u.z();

@@ -62,9 +62,9 @@ inline void addHits(const BoidsLanesInput& in, std::uint32_t* idx, std::size_t m
   for (std::size_t e = 0; e < m; e += kLanes) {
     for (std::size_t l = m; l < e + kLanes; ++l) idx[l] = idx[e];  // lanes past m: any valid index (masked off)
     const V live = L::lt(lane, L::set1(static_cast<float>(m - e)));
-    const V dx = L::sub(gatherLanes<L, kAvx2>(in.x.data(), idx + e), q[0]);
-    const V dy = L::sub(gatherLanes<L, kAvx2>(in.y.data(), idx + e), q[1]);
-    const V dz = L::sub(gatherLanes<L, kAvx2>(in.z.data(), idx + e), q[2]);
+    const V dx = L::sub(gatherLanes<L, kAvx2>(in.x, idx + e), q[0]);
+    const V dy = L::sub(gatherLanes<L, kAvx2>(in.y, idx + e), q[1]);
+    const V dz = L::sub(gatherLanes<L, kAvx2>(in.z, idx + e), q[2]);
     const V d2 = L::add(L::add(L::mul(dx, dx), L::mul(dy, dy)), L::mul(dz, dz));
     const V inv = L::div(one, L::sqrt(L::max(d2, tiny)));
     const V ex = L::mul(dx, inv), ey = L::mul(dy, inv), ez = L::mul(dz, inv);
@@ -96,9 +96,9 @@ inline void boidsLanes(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_
                        std::size_t nChunks, const BoidsZones& z, BoidsScratch& h, std::array<float, 9>* out) {
   using V = typename L::V;
   const V r3sq = L::set1(z.r3sq), zero = L::set1(0.0f), lane = L::load(kLaneIndex);
-  const float* px = in.x.data();
-  const float* py = in.y.data();
-  const float* pz = in.z.data();
+  const float* px = in.x;
+  const float* py = in.y;
+  const float* pz = in.z;
   const std::uint32_t* chunkStart = cells.chunkStart.data();
   const float* chunkSize = cells.chunkSize.data();
   std::uint32_t* hit = h.hits.data();
@@ -157,8 +157,12 @@ __attribute__((target("avx2,popcnt"), flatten)) void boidsAvx2(SWARMSIM_BOIDS_AR
 
 }  // namespace
 
-void BoidsLanesInput::resize(std::size_t n) {
-  for (auto* a : {&x, &y, &z, &ux, &uy, &uz}) a->resize(n + kPad, 0.0f);
+void BoidsLanesInput::prepare(const UniformGrid& grid) {
+  static_assert(UniformGrid::kSortedPad >= kPad, "the grid pads its sorted positions for whole lanes");
+  x = grid.sortedX().data();
+  y = grid.sortedY().data();
+  z = grid.sortedZ().data();
+  for (auto* a : {&ux, &uy, &uz}) a->resize(grid.size() + kPad, 0.0f);
 }
 
 BoidsScratch::BoidsScratch() {

@@ -16,12 +16,17 @@
 
 namespace swarmsim {
 
-// the agents in the grid's sorted order: positions and unit velocities, each array padded with kPad entries
-// past the agent count (whole-lane loads read them; their values are masked off)
+// the agents in the grid's sorted order: positions (the grid's sortedX/Y/Z, which are padded) and unit
+// velocities (padded here), each with at least kPad entries past the agent count (whole-lane loads read them;
+// their values are masked off)
 struct BoidsLanesInput {
   static constexpr std::size_t kPad = 8;
-  std::vector<float> x, y, z, ux, uy, uz;
-  void resize(std::size_t n);  // n agents plus the padding (zeros)
+  const float* x = nullptr;
+  const float* y = nullptr;
+  const float* z = nullptr;
+  std::vector<float> ux, uy, uz;
+  // the grid's positions, and room for n unit velocities plus the padding (zeros)
+  void prepare(const UniformGrid& grid);
 };
 
 // the zones: squared radii R1², R2², R3² and the cosine of half the attraction field of view
