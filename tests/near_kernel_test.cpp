@@ -94,8 +94,6 @@ TEST_CASE("near kernels: F_con and F_int sums equal the scalar ones, and AVX equ
     pts[n / 2] = pts[0];  // a coincident pair (and, for n = 1, the query itself): counted by neither F_con
     const Vec3 q = pts[0], vq = vel[0];
     const CellBlock block = blockOf(pts, q);
-    std::vector<std::uint32_t> all(n);
-    for (std::size_t i = 0; i < n; ++i) all[i] = static_cast<std::uint32_t>(i);
 
     // F_con: Manhattan threshold 0.9, sigma 0.3
     ShapeConstraintSum ref(0.9f, 0.3f);
@@ -104,7 +102,14 @@ TEST_CASE("near kernels: F_con and F_int sums equal the scalar ones, and AVX equ
     Vec3 sum[2];
     int count[2] = {0, 0};
     for (int avx = 0; avx < 2; ++avx) {
-      constraintSum(block, all.data(), n, q, 0.9f, 1.0f / (2.0f * 0.3f * 0.3f), ns, avx == 1, sum[avx], count[avx]);
+      ns.reserve(n + kLanes);
+      for (std::size_t i = 0; i < n; ++i) {
+        ns.dx[i] = pts[i].x() - q.x();
+        ns.dy[i] = pts[i].y() - q.y();
+        ns.dz[i] = pts[i].z() - q.z();
+        ns.d2[i] = block.d2[i];
+      }
+      constraintSumScratch(n, 0.9f, 1.0f / (2.0f * 0.3f * 0.3f), ns, avx == 1, sum[avx], count[avx]);
     }
     CHECK(count[0] == ref.count);
     const Vec3 fRef = ref.force(1.0f), f = ref.count > 0 ? Vec3(sum[0] * (-1.0f / static_cast<float>(count[0]))) : Vec3::Zero();
@@ -138,16 +143,55 @@ TEST_CASE("near kernels: F_con and F_int sums equal the scalar ones, and AVX equ
 #if SWARMSIM_X86_LANES
     if (__builtin_cpu_supports("avx")) CHECK(sameBits(zonalForce(m, zl, copy, true), fz));
 #endif
+  }
+}
 
-    // collectWithin: the entries within r of the query but the query itself, ascending
-    const float r2 = 0.5f;
-    for (int avx = 0; avx < 2; ++avx) {
-      const std::size_t got = collectWithin(block, 0, r2, ns, avx == 1);
-      std::vector<std::uint32_t> want;
-      for (std::size_t i = 1; i < n; ++i) {
-        if (block.d2[i] <= r2) want.push_back(static_cast<std::uint32_t>(i));
+TEST_CASE("near kernels: classifyCandidates sorts each candidate into its classes, the same on every lane set",
+          "[shape][lanes]") {
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  std::vector<LaneSet> sets = {LaneSet::kSse};
+#if SWARMSIM_X86_LANES
+  if (__builtin_cpu_supports("avx")) sets.push_back(LaneSet::kAvx);
+  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("popcnt")) sets.push_back(LaneSet::kAvx2);
+#endif
+  const float threshold = 0.9f, near2 = 0.4f, reach2 = 0.1f;
+  for (const std::size_t m : {0u, 1u, 7u, 8u, 9u, 64u, 301u}) {
+    std::vector<Vec3> pts(m);
+    for (auto& p : pts) p = Vec3(u(rng), u(rng), u(rng));
+    const Vec3 q(0.1f, -0.2f, 0.05f);
+    if (m > 2) pts[2] = q;  // at the query: d2 = 0, in the near and reach classes but not F_con's
+    // the classes by a plain loop
+    std::vector<std::uint32_t> want[3];
+    for (std::size_t e = 0; e < m; ++e) {
+      const float dx = pts[e].x() - q.x(), dy = pts[e].y() - q.y(), dz = pts[e].z() - q.z();
+      const float d2 = dx * dx + dy * dy + dz * dz;
+      const float man = std::abs(dx) + std::abs(dy) + std::abs(dz);
+      if (man < threshold && d2 > 0.0f) want[0].push_back(static_cast<std::uint32_t>(e));
+      if (d2 <= near2) want[1].push_back(static_cast<std::uint32_t>(e));
+      if (d2 <= reach2) want[2].push_back(static_cast<std::uint32_t>(e));
+    }
+    for (const LaneSet set : sets) {
+      INFO("m = " << m << ", lane set " << static_cast<int>(set));
+      NearScratch ns;
+      ns.reserveCandidates(m);
+      for (std::size_t e = 0; e < m; ++e) {
+        ns.cx[e] = pts[e].x();
+        ns.cy[e] = pts[e].y();
+        ns.cz[e] = pts[e].z();
       }
-      CHECK(std::vector<std::uint32_t>(ns.pick.begin(), ns.pick.begin() + static_cast<std::ptrdiff_t>(got)) == want);
+      std::size_t counts[3];
+      classifyCandidates(m, q, threshold, near2, reach2, ns, set, counts);
+      const std::vector<std::uint32_t>* got[3] = {&ns.conIdx, &ns.nearIdx, &ns.mdeIdx};
+      for (int c = 0; c < 3; ++c) {
+        REQUIRE(counts[c] == want[c].size());
+        CHECK(std::equal(want[c].begin(), want[c].end(), got[c]->begin()));
+      }
+      for (std::size_t e = 0; e < m; ++e) {  // the offsets and squared distances, in place
+        const float dx = pts[e].x() - q.x(), dy = pts[e].y() - q.y(), dz = pts[e].z() - q.z();
+        CHECK((ns.cx[e] == dx && ns.cy[e] == dy && ns.cz[e] == dz));
+        CHECK(ns.cd2[e] == dx * dx + dy * dy + dz * dz);
+      }
     }
   }
 }

@@ -238,6 +238,34 @@ inline LaneSet laneSet() {
 #endif
 }
 
+#if SWARMSIM_X86_LANES
+// entry points and helpers that use AVX2 (and POPCNT, which every AVX2 CPU has); laneSet() says when
+#define SWARMSIM_AVX2 __attribute__((target("avx2,popcnt")))
+
+// for each 8-lane mask, the numbers of its set lanes in order (the rest 0): a permute that packs them
+struct LanePackTable {
+  alignas(32) std::uint32_t lanes[256][kLanes];
+  constexpr LanePackTable() : lanes() {
+    for (unsigned mask = 0; mask < 256; ++mask) {
+      unsigned n = 0;
+      for (unsigned l = 0; l < kLanes; ++l) {
+        if (mask & (1u << l)) lanes[mask][n++] = l;
+      }
+    }
+  }
+};
+inline constexpr LanePackTable kLanePack;
+
+// base + l for each set lane l of `mask`, in order, to out[0, popcount(mask)); writes 8 entries (out needs
+// room for them); returns how many were set. The same result as a loop over the set bits.
+SWARMSIM_AVX2 inline std::size_t packLaneIndices(std::uint32_t base, unsigned mask, std::uint32_t* out) {
+  const __m256i pick = _mm256_load_si256(reinterpret_cast<const __m256i*>(kLanePack.lanes[mask]));
+  const __m256i v = _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(base)), pick);
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(out), v);
+  return static_cast<std::size_t>(__builtin_popcount(mask));
+}
+#endif
+
 // e^x per lane (x clamped to [-87, 88]): x = n ln 2 + g with integer n = round(x log2 e) and |g| <= ln 2 / 2
 // (ln 2 in two parts, Cody and Waite, so g is nearly exact), then 2^n times the degree-7 Taylor polynomial
 // of e^g: relative error about 2e-7 at most. Written in lane operations only, so every lane type gives

@@ -14,28 +14,8 @@ namespace {
 
 constexpr float kTiny = 1e-30f;  // floor of squared lengths: the masked-off lanes stay finite
 
-// indices of the set lanes of each 8-lane mask, in order, for a left-packing permute (the rest: don't care)
-struct PackTable {
-  alignas(32) std::uint32_t lanes[256][kLanes];
-  constexpr PackTable() : lanes() {
-    for (unsigned mask = 0; mask < 256; ++mask) {
-      unsigned n = 0;
-      for (unsigned l = 0; l < kLanes; ++l) {
-        if (mask & (1u << l)) lanes[mask][n++] = l;
-      }
-    }
-  }
-};
-constexpr PackTable kPack;
-
 #if SWARMSIM_X86_LANES
-// the set lanes of j + (0, 1, ..., 7), in order, to out[0, count) (it writes 8 entries)
-__attribute__((target("avx2,popcnt"))) inline void packIndices(std::uint32_t j, unsigned mask, std::uint32_t* out) {
-  const __m256i idx = _mm256_load_si256(reinterpret_cast<const __m256i*>(kPack.lanes[mask]));
-  const __m256i v = _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(j)), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
-  _mm256_storeu_si256(reinterpret_cast<__m256i*>(out), _mm256_permutevar8x32_epi32(v, idx));
-}
-__attribute__((target("avx2,popcnt"))) inline __m256 gather8(const float* base, const std::uint32_t* idx) {
+SWARMSIM_AVX2 inline __m256 gather8(const float* base, const std::uint32_t* idx) {
   return _mm256_i32gather_ps(base, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(idx)), 4);
 }
 #endif
@@ -120,8 +100,7 @@ inline void boidsLanes(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_
       unsigned bits = L::mask(L::band(live, L::band(L::le(d2, r3sq), L::gt(d2, zero))));
 #if SWARMSIM_X86_LANES
       if constexpr (kAvx2) {
-        packIndices(j, bits, hit + m);
-        m += static_cast<std::size_t>(__builtin_popcount(bits));  // one instruction: AVX2 CPUs have POPCNT
+        m += packLaneIndices(j, bits, hit + m);
       } else
 #endif
       {
@@ -149,7 +128,7 @@ __attribute__((flatten)) void boidsSse(SWARMSIM_BOIDS_ARGS) {
 SWARMSIM_AVX __attribute__((flatten)) void boidsAvx(SWARMSIM_BOIDS_ARGS) {
   boidsLanes<AvxLanes, false>(in, a0, a1, h, nChunks, z, h, out);
 }
-__attribute__((target("avx2,popcnt"), flatten)) void boidsAvx2(SWARMSIM_BOIDS_ARGS) {
+SWARMSIM_AVX2 __attribute__((flatten)) void boidsAvx2(SWARMSIM_BOIDS_ARGS) {
   boidsLanes<AvxLanes, true>(in, a0, a1, h, nChunks, z, h, out);
 }
 #undef SWARMSIM_BOIDS_ARGS

@@ -11,8 +11,6 @@ namespace {
 
 constexpr float kTiny = 1e-30f;  // floor of squared lengths: a zero vector times a finite reciprocal stays zero
 
-static_assert(kLanes <= CellBlock::kSlack, "collectLanes loads whole lanes past a block's size");
-
 inline std::size_t padded(std::size_t m) { return (m + kLanes - 1) / kLanes * kLanes; }
 
 // lanes 0..7 in order: the same bits for every lane type
@@ -46,26 +44,6 @@ inline void constraintLanes(const NearScratch& s, std::size_t m, float threshold
   L::store(out[1], sy);
   L::store(out[2], sz);
   count = n;
-}
-
-template <typename L>
-inline std::size_t collectLanes(const CellBlock& block, std::uint32_t k, float r2, std::uint32_t* pick) {
-  using V = typename L::V;
-  const V r = L::set1(r2);
-  const float* d2 = block.d2.data();  // at least size + CellBlock::kSlack entries (kLanes <= kSlack)
-  const std::uint32_t* index = block.index.data();
-  std::size_t m = 0;
-  for (std::size_t j = 0; j < block.size; j += kLanes) {
-    unsigned bits = L::mask(L::le(L::load(d2 + j), r));
-    if (block.size - j < kLanes) bits &= (1u << (block.size - j)) - 1u;
-    while (bits) {
-      const auto b = static_cast<std::uint32_t>(j + static_cast<std::size_t>(__builtin_ctz(bits)));
-      pick[m] = b;
-      m += index[b] != k ? 1 : 0;
-      bits &= bits - 1u;
-    }
-  }
-  return m;
 }
 
 // F_int's zonal sums over m (a multiple of kLanes) entries: out[3 z + a] the sum of zone z's unit vectors
@@ -107,7 +85,9 @@ inline void zonalLanes(const NearScratch& s, std::size_t m, const ZoneLanes& z, 
   }
 }
 
-template <typename L>
+// kAvx2: the indices of each class packed by AVX2's table permute (packLaneIndices), without a branch per
+// entry; the same result as the loops over the set bits
+template <typename L, bool kAvx2>
 inline void classifyLanes(std::size_t m, float qx, float qy, float qz, float threshold, float near2, float reach2,
                           NearScratch& s, std::size_t counts[3]) {
   using V = typename L::V;
@@ -127,15 +107,19 @@ inline void classifyLanes(std::size_t m, float qx, float qy, float qz, float thr
     L::store(s.cd2.data() + e, d2);
     const V man = L::add(L::add(L::andnot(sign, dx), L::andnot(sign, dy)), L::andnot(sign, dz));
     const auto base = static_cast<std::uint32_t>(e);
-    for (unsigned bits = L::mask(L::band(L::lt(man, thr), L::gt(d2, zero))); bits; bits &= bits - 1u) {
-      con[nc++] = base + static_cast<std::uint32_t>(__builtin_ctz(bits));
+    const unsigned inCon = L::mask(L::band(L::lt(man, thr), L::gt(d2, zero)));
+    const unsigned inNear = L::mask(L::le(d2, vnear)), inReach = L::mask(L::le(d2, vreach));
+#if SWARMSIM_X86_LANES
+    if constexpr (kAvx2) {
+      nc += packLaneIndices(base, inCon, con + nc);
+      nn += packLaneIndices(base, inNear, nr + nn);
+      nm += packLaneIndices(base, inReach, md + nm);
+      continue;
     }
-    for (unsigned bits = L::mask(L::le(d2, vnear)); bits; bits &= bits - 1u) {
-      nr[nn++] = base + static_cast<std::uint32_t>(__builtin_ctz(bits));
-    }
-    for (unsigned bits = L::mask(L::le(d2, vreach)); bits; bits &= bits - 1u) {
-      md[nm++] = base + static_cast<std::uint32_t>(__builtin_ctz(bits));
-    }
+#endif
+    for (unsigned bits = inCon; bits; bits &= bits - 1u) con[nc++] = base + static_cast<std::uint32_t>(__builtin_ctz(bits));
+    for (unsigned bits = inNear; bits; bits &= bits - 1u) nr[nn++] = base + static_cast<std::uint32_t>(__builtin_ctz(bits));
+    for (unsigned bits = inReach; bits; bits &= bits - 1u) md[nm++] = base + static_cast<std::uint32_t>(__builtin_ctz(bits));
   }
   counts[0] = nc;
   counts[1] = nn;
@@ -145,11 +129,15 @@ inline void classifyLanes(std::size_t m, float qx, float qy, float qz, float thr
 #if SWARMSIM_X86_LANES
 __attribute__((flatten)) void classifySse(std::size_t m, float qx, float qy, float qz, float t, float n2, float r2,
                                           NearScratch& s, std::size_t c[3]) {
-  classifyLanes<SseLanes>(m, qx, qy, qz, t, n2, r2, s, c);
+  classifyLanes<SseLanes, false>(m, qx, qy, qz, t, n2, r2, s, c);
 }
 SWARMSIM_AVX __attribute__((flatten)) void classifyAvx(std::size_t m, float qx, float qy, float qz, float t, float n2,
                                                        float r2, NearScratch& s, std::size_t c[3]) {
-  classifyLanes<AvxLanes>(m, qx, qy, qz, t, n2, r2, s, c);
+  classifyLanes<AvxLanes, false>(m, qx, qy, qz, t, n2, r2, s, c);
+}
+SWARMSIM_AVX2 __attribute__((flatten)) void classifyAvx2(std::size_t m, float qx, float qy, float qz, float t,
+                                                         float n2, float r2, NearScratch& s, std::size_t c[3]) {
+  classifyLanes<AvxLanes, true>(m, qx, qy, qz, t, n2, r2, s, c);
 }
 __attribute__((flatten)) void constraintSse(const NearScratch& s, std::size_t m, float t, float c, float o[3][kLanes],
                                             int& n) {
@@ -158,13 +146,6 @@ __attribute__((flatten)) void constraintSse(const NearScratch& s, std::size_t m,
 SWARMSIM_AVX __attribute__((flatten)) void constraintAvx(const NearScratch& s, std::size_t m, float t, float c,
                                                          float o[3][kLanes], int& n) {
   constraintLanes<AvxLanes>(s, m, t, c, o, n);
-}
-__attribute__((flatten)) std::size_t collectSse(const CellBlock& b, std::uint32_t k, float r2, std::uint32_t* p) {
-  return collectLanes<SseLanes>(b, k, r2, p);
-}
-SWARMSIM_AVX __attribute__((flatten)) std::size_t collectAvx(const CellBlock& b, std::uint32_t k, float r2,
-                                                             std::uint32_t* p) {
-  return collectLanes<AvxLanes>(b, k, r2, p);
 }
 __attribute__((flatten)) void zonalSse(const NearScratch& s, std::size_t m, const ZoneLanes& z, float o[12]) {
   zonalLanes<SseLanes>(s, m, z, o);
@@ -181,7 +162,6 @@ void NearScratch::reserve(std::size_t n) {
   if (dx.size() >= n) return;
   const std::size_t cap = padded(n + n / 2 + 16);
   for (auto* v : {&dx, &dy, &dz, &d2, &ux, &uy, &uz}) v->resize(cap);
-  pick.resize(cap);
 }
 
 void NearScratch::growCandidates(std::size_t n) {
@@ -191,19 +171,6 @@ void NearScratch::growCandidates(std::size_t n) {
   for (auto* v : {&cj, &conIdx, &nearIdx, &mdeIdx}) v->resize(cap);
   if (keys.size() < cap) keys.resize(cap);
   room_ = cap;
-}
-
-void constraintSum(const CellBlock& block, const std::uint32_t* hits, std::size_t m, const Vec3& q, float threshold,
-                   float inv2s2, NearScratch& s, bool avx, Vec3& sum, int& count) {
-  s.reserve(padded(m));
-  for (std::size_t e = 0; e < m; ++e) {
-    const std::uint32_t b = hits[e];
-    s.dx[e] = block.x[b] - q.x();
-    s.dy[e] = block.y[b] - q.y();
-    s.dz[e] = block.z[b] - q.z();
-    s.d2[e] = block.d2[b];
-  }
-  constraintSumScratch(m, threshold, inv2s2, s, avx, sum, count);
 }
 
 void constraintSumScratch(std::size_t m, float threshold, float inv2s2, NearScratch& s, bool avx, Vec3& sum,
@@ -222,27 +189,25 @@ void constraintSumScratch(std::size_t m, float threshold, float inv2s2, NearScra
 }
 
 void classifyCandidates(std::size_t m, const Vec3& q, float threshold, float near2, float reach2, NearScratch& s,
-                        bool avx, std::size_t counts[3]) {
+                        LaneSet lanes, std::size_t counts[3]) {
   const std::size_t mp = padded(m);
-  s.reserveCandidates(mp);
+  s.reserveCandidates(mp);  // room for whole lanes past mp in the index arrays too (packLaneIndices writes 8)
   // padding far away: in no class (its d2 is infinite, never NaN)
   for (std::size_t e = m; e < mp; ++e) s.cx[e] = s.cy[e] = s.cz[e] = 3.0e38f;
 #if SWARMSIM_X86_LANES
-  avx ? classifyAvx(mp, q.x(), q.y(), q.z(), threshold, near2, reach2, s, counts)
-      : classifySse(mp, q.x(), q.y(), q.z(), threshold, near2, reach2, s, counts);
+  switch (lanes) {
+    case LaneSet::kAvx2:
+      classifyAvx2(mp, q.x(), q.y(), q.z(), threshold, near2, reach2, s, counts);
+      break;
+    case LaneSet::kAvx:
+      classifyAvx(mp, q.x(), q.y(), q.z(), threshold, near2, reach2, s, counts);
+      break;
+    default:
+      classifySse(mp, q.x(), q.y(), q.z(), threshold, near2, reach2, s, counts);
+  }
 #else
-  (void)avx;
-  classifyLanes<ScalarLanes>(mp, q.x(), q.y(), q.z(), threshold, near2, reach2, s, counts);
-#endif
-}
-
-std::size_t collectWithin(const CellBlock& block, std::uint32_t k, float r2, NearScratch& s, bool avx) {
-  s.reserve(block.size);
-#if SWARMSIM_X86_LANES
-  return avx ? collectAvx(block, k, r2, s.pick.data()) : collectSse(block, k, r2, s.pick.data());
-#else
-  (void)avx;
-  return collectLanes<ScalarLanes>(block, k, r2, s.pick.data());
+  (void)lanes;
+  classifyLanes<ScalarLanes, false>(mp, q.x(), q.y(), q.z(), threshold, near2, reach2, s, counts);
 #endif
 }
 

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/lanes.hpp"
 #include "core/vec.hpp"
 #include "spatial/uniform_grid.hpp"
 
@@ -20,7 +21,6 @@ namespace swarmsim {
 // per-thread scratch of the kernels (grows rarely, never shrinks)
 struct NearScratch {
   std::vector<float> dx, dy, dz, d2, ux, uy, uz;
-  std::vector<std::uint32_t> pick;
   std::vector<std::uint64_t> keys;
   // one insect's candidates (the shape model's near lists): offsets, squared distances, sorted positions,
   // and the ids of a list built from the grid
@@ -42,25 +42,17 @@ struct NearScratch {
 // One insect's candidates, eight at a time: on entry scratch.cx/cy/cz[0, m) hold their positions, on
 // return their offsets from q and scratch.cd2 their squared distances; the indices e (ascending) of those
 // with Manhattan length < threshold and d2 > 0 (F_con's) go to conIdx, with d2 <= near2 to nearIdx, with
-// d2 <= reach2 to mdeIdx, and counts[0..2] say how many. The lanes past m are padded here.
+// d2 <= reach2 to mdeIdx, and counts[0..2] say how many. The lanes past m are padded here. `lanes`: which
+// instruction set (laneSet(); every one gives the same result).
 void classifyCandidates(std::size_t m, const Vec3& q, float threshold, float near2, float reach2, NearScratch& scratch,
-                        bool avx, std::size_t counts[3]);
+                        LaneSet lanes, std::size_t counts[3]);
 
-// F_con's sum (eq. 5) over the block entries hits[0, m): Σ d̂ exp(−M² inv2s2) over the entries with
-// 0 < |d| and Manhattan length M < threshold, d = p_j − q (the caller negates and scales it), and how
-// many there were
-void constraintSum(const CellBlock& block, const std::uint32_t* hits, std::size_t m, const Vec3& q, float threshold,
-                   float inv2s2, NearScratch& scratch, bool avx, Vec3& sum, int& count);
-
-// the same sum over scratch.dx/dy/dz/d2[0, m) (entries at or beyond the threshold, or at d2 = 0, count for
-// nothing; the lane of entry e is e % 8, so a caller that wants a sum independent of which other entries
-// are present passes only those that count)
+// F_con's sum (eq. 5) over scratch.dx/dy/dz/d2[0, m): Σ d̂ exp(−M² inv2s2) over the entries with 0 < |d| and
+// Manhattan length M < threshold, d = p_j − q (the caller negates and scales it), and how many there were.
+// The other entries count for nothing, but the lane of entry e is e % 8, so a caller that wants a sum
+// independent of which other entries are present passes only those that count.
 void constraintSumScratch(std::size_t m, float threshold, float inv2s2, NearScratch& scratch, bool avx, Vec3& sum,
                           int& count);
-
-// the block entries b (ascending) with block.d2[b] <= r2 and block.index[b] != k, into scratch.pick;
-// returns how many
-std::size_t collectWithin(const CellBlock& block, std::uint32_t k, float r2, NearScratch& scratch, bool avx);
 
 // the zones of F_int (eq. 2-3): squared radii and weights
 struct ZoneLanes {

@@ -312,6 +312,7 @@ class ShapeModel final : public Model {
     }
     const ZoneLanes zoneLanes = {zones.rRep2, zones.rAli2, zones.rAtt2, {zones.w[0], zones.w[1], zones.w[2]}};
     const bool avx = useAvx();
+    const LaneSet lanes = laneSet();
     // F_con (into fCon) and F_int (returned) of sorted insect k from its near-list candidates. Every sum runs
     // over the entries that count, packed in id order, so it depends on the positions only.
     const float mdReach2 = mdReach * mdReach * (1.0f + 1e-5f);  // float slack: a larger radius is harmless
@@ -371,7 +372,7 @@ class ShapeModel final : public Model {
         }
         // offsets, squared distances, and who counts for F_con, F_int (within the first radius) and MDE
         const float reach = std::min({cover, rAtt, guess});
-        classifyCandidates(m, Vec3(qx, qy, qz), kh, reach * reach, mdReach2, ns, avx, counts);
+        classifyCandidates(m, Vec3(qx, qy, qz), kh, reach * reach, mdReach2, ns, lanes, counts);
         mk = counts[1];
         if (mk < K && reach < std::min(cover, rAtt)) {  // fewer than K within the first radius: all of cover
           const float c2 = std::min(cover, rAtt) * std::min(cover, rAtt);
