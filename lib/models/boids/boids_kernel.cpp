@@ -4,10 +4,6 @@
 
 #include "core/lanes.hpp"
 
-// gatherLanes<AvxLanes, true> returns an AVX vector from a function without the AVX target; it is only ever
-// inlined into the AVX2 entry (flatten), so no call crosses that ABI boundary
-#pragma GCC diagnostic ignored "-Wpsabi"
-
 namespace swarmsim {
 
 namespace {
@@ -15,18 +11,23 @@ namespace {
 constexpr float kTiny = 1e-30f;  // floor of squared lengths: the masked-off lanes stay finite
 
 #if SWARMSIM_X86_LANES
-SWARMSIM_AVX2 inline __m256 gather8(const float* base, const std::uint32_t* idx) {
-  return _mm256_i32gather_ps(base, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(idx)), 4);
+// base[idx[0..7]] to out[0..7] by one AVX2 gather
+SWARMSIM_AVX2 inline void gather8(const float* base, const std::uint32_t* idx, float* out) {
+  _mm256_store_ps(out, _mm256_i32gather_ps(base, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(idx)), 4));
 }
 #endif
 
 // the values base[idx[0..7]] as lanes
+// (through memory: no function here without the AVX target passes an AVX vector, which would change the ABI)
 template <typename L, bool kAvx2>
 inline typename L::V gatherLanes(const float* base, const std::uint32_t* idx) {
-#if SWARMSIM_X86_LANES
-  if constexpr (kAvx2) return {gather8(base, idx)};
-#endif
   alignas(32) float t[kLanes];
+#if SWARMSIM_X86_LANES
+  if constexpr (kAvx2) {
+    gather8(base, idx, t);
+    return L::load(t);
+  }
+#endif
   for (std::size_t l = 0; l < kLanes; ++l) t[l] = base[idx[l]];
   return L::load(t);
 }
