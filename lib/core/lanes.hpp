@@ -242,7 +242,7 @@ inline LaneSet laneSet() {
 // entry points and helpers that use AVX2 (and POPCNT, which every AVX2 CPU has); laneSet() says when
 #define SWARMSIM_AVX2 __attribute__((target("avx2,popcnt")))
 
-// for each 8-lane mask, the numbers of its set lanes in order (the rest 0): a permute that packs them
+// for each 8-lane mask, the numbers of its set lanes in order (the rest 0): a table that packs them
 struct LanePackTable {
   alignas(32) std::uint32_t lanes[256][kLanes];
   constexpr LanePackTable() : lanes() {

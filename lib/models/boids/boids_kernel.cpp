@@ -32,8 +32,8 @@ inline typename L::V gatherLanes(const float* base, const std::uint32_t* idx) {
   return L::load(t);
 }
 
-// the hits idx[first, m) (sorted positions, m - first a multiple of 8 but for the last group) into acc, hit e in
-// lane e % 8 (lanes at or past m in the last group are off; idx has room for whole lanes)
+// the hits idx[0, m) (sorted positions) into acc, eight at a time, hit e in lane e % 8 (the lanes at or past m
+// in the last group are off; idx has room for whole lanes)
 template <typename L, bool kAvx2>
 inline void addHits(const BoidsLanesInput& in, std::uint32_t* idx, std::size_t m, const typename L::V q[6],
                     const BoidsZones& z, typename L::V acc[9]) {
@@ -70,8 +70,8 @@ inline void addHits(const BoidsLanesInput& in, std::uint32_t* idx, std::size_t m
 // positions): the lane-tree sums of rep (before negation), ali and att, axis by axis. Each agent tests the
 // chunks eight candidates at a time for those within R3 (squared distances only); the hits' sorted positions
 // are packed in scan order and summed eight at a time (hit e in lane e % 8), so square roots and divisions go
-// to hits alone. kAvx2: pack with AVX2's lane permute and load hits with its gathers (the same result as the
-// plain loops).
+// to hits alone. kAvx2: pack by AVX2's table look-up (packLaneIndices) and load hits with its gathers (the
+// same result as the plain loops).
 template <typename L, bool kAvx2>
 inline void boidsLanes(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_t a1, const BoidsScratch& cells,
                        std::size_t nChunks, const BoidsZones& z, BoidsScratch& h, std::array<float, 9>* out) {

@@ -85,7 +85,7 @@ inline void zonalLanes(const NearScratch& s, std::size_t m, const ZoneLanes& z, 
   }
 }
 
-// kAvx2: the indices of each class packed by AVX2's table permute (packLaneIndices), without a branch per
+// kAvx2: the indices of each class packed by an AVX2 table look-up (packLaneIndices), without a branch per
 // entry; the same result as the loops over the set bits
 template <typename L, bool kAvx2>
 inline void classifyLanes(std::size_t m, float qx, float qy, float qz, float threshold, float near2, float reach2,
