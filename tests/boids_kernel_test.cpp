@@ -54,13 +54,25 @@ std::vector<std::array<float, 9>> kernelSums(const Cloud& c, const BoidsZones& z
   std::vector<std::array<float, 9>> out(n);
   BoidsScratch scratch;
   std::vector<std::array<float, 9>> cell;
-  for (std::size_t cc = 0; cc < grid.cellCount(); ++cc) {
-    const std::uint32_t a0 = grid.cellBegin(cc), a1 = grid.cellEnd(cc);
-    if (a0 == a1) continue;
-    cell.assign(a1 - a0, std::array<float, 9>{});
-    boidsCellSums(grid, in, cc, zones, r3, lanes, scratch, cell.data());
-    for (std::uint32_t k = a0; k < a1; ++k) out[k] = cell[k - a0];
+  std::size_t cells = 0;
+  for (std::size_t row = 0; row < grid.rowCount(); ++row) {
+    grid.forEachCellOfRow(row, r3, scratch.runs, [&](std::size_t cc, const std::uint32_t* runs, std::size_t nRuns) {
+      const std::uint32_t a0 = grid.cellBegin(cc), a1 = grid.cellEnd(cc);
+      // the runs are forEachCellRun's, empty ones left out
+      std::vector<std::uint32_t> want;
+      grid.forEachCellRun(cc, r3, [&](std::uint32_t b, std::uint32_t e) {
+        if (b < e) want.insert(want.end(), {b, e});
+      });
+      CHECK(std::vector<std::uint32_t>(runs, runs + 2 * nRuns) == want);
+      cell.assign(a1 - a0, std::array<float, 9>{});
+      boidsCellSums(in, a0, a1, runs, nRuns, zones, lanes, scratch, cell.data());
+      for (std::uint32_t k = a0; k < a1; ++k) out[k] = cell[k - a0];
+      cells += 1;
+    });
   }
+  std::size_t occupied = 0;  // every non-empty cell was visited
+  for (std::size_t cc = 0; cc < grid.cellCount(); ++cc) occupied += grid.cellBegin(cc) < grid.cellEnd(cc) ? 1 : 0;
+  CHECK(cells == occupied);
   return out;
 }
 

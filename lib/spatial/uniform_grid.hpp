@@ -157,6 +157,45 @@ class UniformGrid {
     }
   }
 
+  // rows of cells: row = cz * dim(1) + cy, for row < rowCount()
+  std::size_t rowCount() const { return static_cast<std::size_t>(dims_[1]) * dims_[2]; }
+  // call f(c, runs, nRuns) for every non-empty cell c of `row`, in x order, where runs[2 i], runs[2 i + 1]
+  // (i < nRuns) are the non-empty runs of forEachCellRun(c, r), in its order. The neighbouring rows are found
+  // once per row (no division per cell). `runs` is the caller's scratch (grown here, kept between calls).
+  template <typename F>
+  void forEachCellOfRow(std::size_t row, float r, std::vector<std::uint32_t>& runs, F&& f) const {
+    const int cy = static_cast<int>(row % static_cast<std::size_t>(dims_[1]));
+    const int cz = static_cast<int>(row / static_cast<std::size_t>(dims_[1]));
+    int lo[3], hi[3], span[3];
+    for (int a = 0; a < 3; ++a) span[a] = spanFor(r, a);
+    lo[1] = std::max(0, cy - span[1]);
+    hi[1] = std::min(dims_[1] - 1, cy + span[1]);
+    lo[2] = std::max(0, cz - span[2]);
+    hi[2] = std::min(dims_[2] - 1, cz + span[2]);
+    const std::size_t rows = static_cast<std::size_t>(hi[1] - lo[1] + 1) * static_cast<std::size_t>(hi[2] - lo[2] + 1);
+    if (runs.size() < 3 * rows) runs.resize(3 * rows);
+    std::uint32_t* base = runs.data() + 2 * rows;  // the neighbouring rows' first cells, after the runs
+    std::size_t nb = 0;
+    for (int z = lo[2]; z <= hi[2]; ++z) {
+      for (int y = lo[1]; y <= hi[1]; ++y) base[nb++] = static_cast<std::uint32_t>((static_cast<std::size_t>(z) * dims_[1] + y) * dims_[0]);
+    }
+    const std::size_t rowFirst = row * static_cast<std::size_t>(dims_[0]);
+    for (int cx = 0; cx < dims_[0]; ++cx) {
+      const std::size_t c = rowFirst + static_cast<std::size_t>(cx);
+      if (start_[c] == start_[c + 1]) continue;
+      const std::size_t x0 = static_cast<std::size_t>(std::max(0, cx - span[0]));
+      const std::size_t x1 = static_cast<std::size_t>(std::min(dims_[0] - 1, cx + span[0])) + 1;
+      std::size_t n = 0;
+      for (std::size_t i = 0; i < nb; ++i) {
+        const std::uint32_t b = start_[base[i] + x0], e = start_[base[i] + x1];
+        runs[2 * n] = b;
+        runs[2 * n + 1] = e;
+        n += b < e ? 1 : 0;
+      }
+      f(c, static_cast<const std::uint32_t*>(runs.data()), n);
+    }
+  }
+
   // call f(k, dx, dy, dz, d2) for every sorted point k with d2 = |p_k - q|^2 <= r^2,
   // where (dx, dy, dz) = p_k - q. Includes the query point itself if it is a
   // grid point (d2 = 0). Any r works; r <= minCell visits at most 27 cells.

@@ -108,20 +108,22 @@ class Boids final : public Model {
       next_.py[k] = x.y() + nv.y() * dt;
       next_.pz[k] = x.z() + nv.z() * dt;
     };
-    const auto cell = [&](std::size_t c) {
-      const std::uint32_t a0 = grid_.cellBegin(c), a1 = grid_.cellEnd(c);
-      if (a0 == a1) return;
+    // row by row of cells (the neighbouring rows found once per row), cell by cell along it
+    const auto row = [&](std::size_t rowIndex) {
       BoidsScratch& scratch = scratch_[static_cast<std::size_t>(threadIndex())];
-      if (scratch.sums.size() < a1 - a0) scratch.sums.resize(2 * (a1 - a0));
-      boidsCellSums(grid_, lanes_, c, zones, r3_, laneKind, scratch, scratch.sums.data());
-      for (std::uint32_t k = a0; k < a1; ++k) agent(k, scratch.sums[k - a0].data());
+      grid_.forEachCellOfRow(rowIndex, r3_, scratch.runs, [&](std::size_t c, const std::uint32_t* runs, std::size_t nRuns) {
+        const std::uint32_t a0 = grid_.cellBegin(c), a1 = grid_.cellEnd(c);
+        if (scratch.sums.size() < a1 - a0) scratch.sums.resize(2 * (a1 - a0));
+        boidsCellSums(lanes_, a0, a1, runs, nRuns, zones, laneKind, scratch, scratch.sums.data());
+        for (std::uint32_t k = a0; k < a1; ++k) agent(k, scratch.sums[k - a0].data());
+      });
     };
     // each agent's work is a whole neighbourhood scan: worth the team from a few hundred agents on
+    const std::size_t rows = grid_.rowCount();
     if (n < 256) {
-      for (std::size_t c = 0; c < grid_.cellCount(); ++c) cell(c);
+      for (std::size_t r = 0; r < rows; ++r) row(r);
     } else {
-      const std::size_t chunk = std::clamp<std::size_t>(grid_.cellCount() / (16 * scratch_.size()), 1, 64);
-      parallelForDynamic(grid_.cellCount(), chunk, cell);
+      parallelForDynamic(rows, std::clamp<std::size_t>(rows / (16 * scratch_.size()), 1, 16), row);
     }
     // phase 2: the new state becomes current
     s.swapStorage(next_);

@@ -40,8 +40,9 @@ inline void addHits(const BoidsLanesInput& in, std::uint32_t* idx, std::size_t m
   using V = typename L::V;
   const V lane = L::load(kLaneIndex), one = L::set1(1.0f), tiny = L::set1(kTiny);
   const V r1 = L::set1(z.r1sq), r2 = L::set1(z.r2sq), cosFov = L::set1(z.cosHalfFov);
+  if (m == 0) return;
+  for (std::size_t l = m; l % kLanes != 0; ++l) idx[l] = idx[0];  // lanes past m: any valid index (masked off)
   for (std::size_t e = 0; e < m; e += kLanes) {
-    for (std::size_t l = m; l < e + kLanes; ++l) idx[l] = idx[e];  // lanes past m: any valid index (masked off)
     const V live = L::lt(lane, L::set1(static_cast<float>(m - e)));
     const V dx = L::sub(gatherLanes<L, kAvx2>(in.x, idx + e), q[0]);
     const V dy = L::sub(gatherLanes<L, kAvx2>(in.y, idx + e), q[1]);
@@ -151,25 +152,28 @@ BoidsScratch::BoidsScratch() {
   chunkSize.resize(64);
 }
 
-void boidsCellSums(const UniformGrid& grid, const BoidsLanesInput& in, std::size_t cell, const BoidsZones& zones,
-                   float r3, LaneSet lanes, BoidsScratch& scratch, std::array<float, 9>* out) {
+void boidsCellSums(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_t a1, const std::uint32_t* runs,
+                   std::size_t nRuns, const BoidsZones& zones, LaneSet lanes, BoidsScratch& scratch,
+                   std::array<float, 9>* out) {
   static_assert(BoidsLanesInput::kPad >= kLanes, "whole-lane loads read up to 7 entries past a run");
-  const std::uint32_t a0 = grid.cellBegin(cell), a1 = grid.cellEnd(cell);
   if (a0 == a1) return;
-  // the rows that can hold a neighbour of any agent of the cell (grid.forEachRun about each agent visits a
-  // subset of them in the same order; the rest hold no hit), cut into chunks of up to eight
+  // the rows cut into chunks of up to eight
+  std::size_t most = 0;
+  for (std::size_t r = 0; r < nRuns; ++r) most += (runs[2 * r + 1] - runs[2 * r] + kLanes - 1) / kLanes;
+  if (scratch.chunkStart.size() < most) {
+    scratch.chunkStart.resize(2 * most);
+    scratch.chunkSize.resize(2 * most);
+  }
+  std::uint32_t* start = scratch.chunkStart.data();
+  float* size = scratch.chunkSize.data();
   std::size_t nChunks = 0;
-  grid.forEachCellRun(cell, r3, [&](std::uint32_t b, std::uint32_t e) {
-    for (std::uint32_t j = b; j < e; j += kLanes) {
-      if (nChunks == scratch.chunkStart.size()) {
-        scratch.chunkStart.resize(2 * nChunks);
-        scratch.chunkSize.resize(2 * nChunks);
-      }
-      scratch.chunkStart[nChunks] = j;
-      scratch.chunkSize[nChunks] = static_cast<float>(std::min<std::uint32_t>(e - j, kLanes));
-      ++nChunks;
+  for (std::size_t r = 0; r < nRuns; ++r) {
+    const std::uint32_t b = runs[2 * r], e = runs[2 * r + 1];
+    for (std::uint32_t j = b; j < e; j += kLanes, ++nChunks) {
+      start[nChunks] = j;
+      size[nChunks] = static_cast<float>(std::min<std::uint32_t>(e - j, kLanes));
     }
-  });
+  }
 #if SWARMSIM_X86_LANES
   switch (lanes) {
     case LaneSet::kAvx2:

@@ -38,17 +38,20 @@ struct BoidsZones {
 struct BoidsScratch {
   static constexpr std::size_t kRoom = 256;
   std::vector<std::uint32_t> hits;  // sorted positions of one agent's hits, packed
+  std::vector<std::uint32_t> runs;        // a row's cells' runs (UniformGrid::forEachCellOfRow)
   std::vector<std::uint32_t> chunkStart;  // a cell's rows in chunks of up to eight: first sorted position
   std::vector<float> chunkSize;           // and size (as a float, for the lane mask)
   std::vector<std::array<float, 9>> sums;  // the model's: boidsCellSums' output for one cell
   BoidsScratch();
 };
 
-// for each agent k of grid cell `cell` (sorted positions cellBegin..cellEnd), sums over the agents j != k within R3
-// (d = p_j − p_k, d̂ = d / |d|, coincident agents skipped), into out[k − cellBegin][0..8]: Σ d̂ over |d| <= R1
+// for each agent k of a grid cell (sorted positions a0..a1-1) whose neighbourhood rows are the runs
+// [runs[2 i], runs[2 i + 1]) (i < nRuns: UniformGrid::forEachCellOfRow), sums over the agents j != k within R3
+// (d = p_j − p_k, d̂ = d / |d|, coincident agents skipped), into out[k − a0][0..8]: Σ d̂ over |d| <= R1
 // (repulsion: the caller negates it), Σ û_j over R1 < |d| <= R2, Σ d̂ over R2 < |d| <= R3 with û_k · d̂ >=
 // cos(fov / 2), axis by axis. `lanes`: which instruction set (laneSet(); every one gives the same bits).
-void boidsCellSums(const UniformGrid& grid, const BoidsLanesInput& in, std::size_t cell, const BoidsZones& zones,
-                   float r3, LaneSet lanes, BoidsScratch& scratch, std::array<float, 9>* out);
+void boidsCellSums(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_t a1, const std::uint32_t* runs,
+                   std::size_t nRuns, const BoidsZones& zones, LaneSet lanes, BoidsScratch& scratch,
+                   std::array<float, 9>* out);
 
 }  // namespace swarmsim
