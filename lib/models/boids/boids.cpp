@@ -66,6 +66,12 @@ class Boids final : public Model {
     // candidates at a time (boids_kernel.hpp)
     const BoidsZones zones = {r1_ * r1_, r2_ * r2_, r3_ * r3_, cosHalfFov_};
     const float smin = static_cast<float>(p_.speed), smax = static_cast<float>(p_.maxSpeed);
+    const float fr = static_cast<float>(p_.repulsion), fa = static_cast<float>(p_.alignment);
+    const float ft = static_cast<float>(p_.attraction), fc = static_cast<float>(p_.centering);
+    const float fw = static_cast<float>(p_.wallForce);
+    const bool jitter = p_.jitter > 0.0;
+    const std::uint64_t seed = world.seed, stepIndex = info.step;
+    const std::uint32_t swarmIndex = info.swarmIndex;
     const LaneSet laneKind = laneSet();
     scratch_.resize(static_cast<std::size_t>(threadCount()));
     const auto agent = [&](std::size_t k, const float sums[9]) {
@@ -73,9 +79,7 @@ class Boids final : public Model {
       const Vec3 x(lanes_.x[k], lanes_.y[k], lanes_.z[k]), v = s.velocity(i);
       const Vec3 vhat(lanes_.ux[k], lanes_.uy[k], lanes_.uz[k]);
       const Vec3 rep = -Vec3(sums[0], sums[1], sums[2]), ali(sums[3], sums[4], sums[5]), att(sums[6], sums[7], sums[8]);
-      Vec3 u = vhat * smin + rep * static_cast<float>(p_.repulsion) + ali * static_cast<float>(p_.alignment) +
-               att * static_cast<float>(p_.attraction) +
-               centerPull(center - x, invCr) * static_cast<float>(p_.centering);
+      Vec3 u = vhat * smin + rep * fr + ali * fa + att * ft + centerPull(center - x, invCr) * fc;
       // soft walls: push back in proportion to the depth inside the margin
       Vec3 wall = Vec3::Zero();
       for (int a = 0; a < 3; ++a) {
@@ -84,9 +88,9 @@ class Boids final : public Model {
         if (lo > 0.0f) wall[a] += lo / margin;
         if (hi > 0.0f) wall[a] -= hi / margin;
       }
-      u += wall * static_cast<float>(p_.wallForce);
-      if (p_.jitter > 0.0) {
-        AgentRng rng(world.seed, info.step, s.id[i], RngPurpose::kJitter, info.swarmIndex);
+      u += wall * fw;
+      if (jitter) {
+        AgentRng rng(seed, stepIndex, s.id[i], RngPurpose::kJitter, swarmIndex);
         u += rng.normal3() * noise;
       }
       Vec3 nv = v + (u - v) * blend;
