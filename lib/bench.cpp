@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <ostream>
 #include <sstream>
+#include <stdexcept>
 
 #include "core/error.hpp"
 #include "core/parallel.hpp"
@@ -352,10 +353,9 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
         continue;
       }
       // a variant of an earlier case: its JSON with the assignments applied
-      Json json;
-      for (const auto& earlier : sources) {
-        if (earlier.label == c.json) json = earlier.json;
-      }
+      const auto base = std::find_if(sources.begin(), sources.end(), [&](const Source& e) { return e.label == c.json; });
+      if (base == sources.end()) throw std::logic_error(std::string("bench: built-in ") + c.name + " varies no earlier case");
+      Json json = base->json;
       std::istringstream lines(c.overrides);
       for (std::string line; std::getline(lines, line);) applyOverride(json, line);
       sources.push_back({c.name, json});

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/lanes.hpp"
+#include "lane_sets.hpp"
 #include "models/boids/boids_kernel.hpp"
 #include "spatial/uniform_grid.hpp"
 
@@ -55,15 +56,18 @@ std::vector<std::array<float, 9>> kernelSums(const Cloud& c, const BoidsZones& z
   BoidsScratch scratch;
   std::vector<std::array<float, 9>> cell;
   std::size_t cells = 0;
+  CellBlock block;
   for (std::size_t row = 0; row < grid.rowCount(); ++row) {
     grid.forEachCellOfRow(row, r3, scratch.runs, [&](std::size_t cc, const std::uint32_t* runs, std::size_t nRuns) {
       const std::uint32_t a0 = grid.cellBegin(cc), a1 = grid.cellEnd(cc);
-      // the runs are forEachCellRun's, empty ones left out
-      std::vector<std::uint32_t> want;
-      grid.forEachCellRun(cc, r3, [&](std::uint32_t b, std::uint32_t e) {
-        if (b < e) want.insert(want.end(), {b, e});
-      });
-      CHECK(std::vector<std::uint32_t>(runs, runs + 2 * nRuns) == want);
+      // the runs are the rows gatherCell gathers, in its order, empty ones left out
+      grid.gatherCell(cc, r3, block);
+      std::vector<std::uint32_t> got;
+      for (std::size_t i = 0; i < nRuns; ++i) {
+        CHECK(runs[2 * i] < runs[2 * i + 1]);
+        for (std::uint32_t k = runs[2 * i]; k < runs[2 * i + 1]; ++k) got.push_back(k);
+      }
+      CHECK(got == std::vector<std::uint32_t>(block.index.begin(), block.index.begin() + static_cast<std::ptrdiff_t>(block.size)));
       cell.assign(a1 - a0, std::array<float, 9>{});
       boidsCellSums(in, a0, a1, runs, nRuns, zones, lanes, scratch, cell.data());
       for (std::uint32_t k = a0; k < a1; ++k) out[k] = cell[k - a0];
@@ -100,22 +104,12 @@ std::array<double, 9> bruteSums(const BoidsLanesInput& in, std::size_t n, std::s
   return s;
 }
 
-// the lane sets this CPU can run, SSE first
-std::vector<LaneSet> laneSets() {
-  std::vector<LaneSet> sets = {LaneSet::kSse};
-#if SWARMSIM_X86_LANES
-  if (__builtin_cpu_supports("avx")) sets.push_back(LaneSet::kAvx);
-  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("popcnt")) sets.push_back(LaneSet::kAvx2);
-#endif
-  return sets;
-}
-
 void checkAgainstBrute(const Cloud& c, const BoidsZones& zones, float r3, int minNeighbours) {
   UniformGrid grid;
   BoidsLanesInput in;
   const std::size_t n = c.x.size();
   std::vector<std::vector<std::array<float, 9>>> bySet;
-  for (const LaneSet set : laneSets()) bySet.push_back(kernelSums(c, zones, r3, set, grid, in));
+  for (const LaneSet set : swarmsim_test::laneSetsOfThisCpu()) bySet.push_back(kernelSums(c, zones, r3, set, grid, in));
   // every instruction set: the same bits
   for (std::size_t s = 1; s < bySet.size(); ++s) {
     INFO("lane set " << s);

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/lanes.hpp"
+#include "lane_sets.hpp"
 #include "models/shape/near_kernel.hpp"
 #include "models/shape/shape.hpp"
 #include "spatial/uniform_grid.hpp"
@@ -49,7 +50,7 @@ CellBlock blockOf(const std::vector<Vec3>& pts, const Vec3& q) {
   return b;
 }
 
-bool sameBits(const Vec3& a, const Vec3& b) { return std::memcmp(a.data(), b.data(), sizeof(float) * 3) == 0; }
+[[maybe_unused]] bool sameBits(const Vec3& a, const Vec3& b) { return std::memcmp(a.data(), b.data(), sizeof(float) * 3) == 0; }
 
 }  // namespace
 
@@ -150,11 +151,7 @@ TEST_CASE("near kernels: classifyCandidates sorts each candidate into its classe
           "[shape][lanes]") {
   std::mt19937 rng(9);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-  std::vector<LaneSet> sets = {LaneSet::kSse};
-#if SWARMSIM_X86_LANES
-  if (__builtin_cpu_supports("avx")) sets.push_back(LaneSet::kAvx);
-  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("popcnt")) sets.push_back(LaneSet::kAvx2);
-#endif
+  const std::vector<LaneSet> sets = swarmsim_test::laneSetsOfThisCpu();
   const float threshold = 0.9f, near2 = 0.4f, reach2 = 0.1f;
   for (const std::size_t m : {0u, 1u, 7u, 8u, 9u, 64u, 301u}) {
     std::vector<Vec3> pts(m);

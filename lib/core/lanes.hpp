@@ -16,7 +16,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
-#if defined(__GNUC__) && defined(__x86_64__)
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(SWARMSIM_PORTABLE_LANES)
 #include <immintrin.h>
 #define SWARMSIM_X86_LANES 1
 #define SWARMSIM_AVX __attribute__((target("avx")))
@@ -265,6 +265,18 @@ SWARMSIM_AVX2 inline std::size_t packLaneIndices(std::uint32_t base, unsigned ma
   return static_cast<std::size_t>(__builtin_popcount(mask));
 }
 #endif
+
+// base + l for each set lane l of `mask`, in order, to out[0, count); returns the count. kAvx2: by
+// packLaneIndices (which writes 8 entries; only inside SWARMSIM_AVX2 entries), else a loop over the set bits
+template <bool kAvx2>
+inline std::size_t packSetLanes(std::uint32_t base, unsigned mask, std::uint32_t* out) {
+#if SWARMSIM_X86_LANES
+  if constexpr (kAvx2) return packLaneIndices(base, mask, out);
+#endif
+  std::size_t n = 0;
+  for (; mask; mask &= mask - 1u) out[n++] = base + static_cast<std::uint32_t>(__builtin_ctz(mask));
+  return n;
+}
 
 // e^x per lane (x clamped to [-87, 88]): x = n ln 2 + g with integer n = round(x log2 e) and |g| <= ln 2 / 2
 // (ln 2 in two parts, Cody and Waite, so g is nearly exact), then 2^n times the degree-7 Taylor polynomial

@@ -104,7 +104,7 @@ void validate(const FastMarchingInput& in) {
     if (!(s.cell[a] > 0.0) || !std::isfinite(s.cell[a]))
       throw std::invalid_argument("fastMarching: cell sizes must be positive and finite");
   }
-  const double padded = (s.n[0] + 2.0) * (s.n[1] + 2.0) * (s.n[2] + 2.0);
+  const double padded = (s.n[0] + 4.0) * (s.n[1] + 4.0) * (s.n[2] + 4.0);  // two padding layers a side
   if (padded > static_cast<double>(std::numeric_limits<std::int32_t>::max()))
     throw std::invalid_argument("fastMarching: grid too large");
   if (in.order != 1 && in.order != 2) throw std::invalid_argument("fastMarching: order must be 1 or 2");
@@ -209,18 +209,26 @@ Grid3<float> fastMarching(const FastMarchingInput& input) {
   CellHeap heap(cells);
   heap.reserve(4 * (px * py + py * pz + px * pz));
 
-  // goal cells enter the heap at 0 (even impassable ones: a goal wins)
+  // a cell known from the start (a goal at 0, or a start value) enters the heap with its value, even an
+  // impassable one (it wins), or lowers its entry
+  const auto enter = [&](std::size_t p, float v) {
+    if (cells[p].slot == kKnown) cells[p].slot = kFar;
+    if (cells[p].slot == kFar) {
+      heap.push(static_cast<std::uint32_t>(p), v);
+    } else if (v < heap.keyAt(cells[p].slot)) {
+      heap.decrease(cells[p].slot, static_cast<std::uint32_t>(p), v);
+    }
+  };
   for (int k = 0; k < nz; ++k)
     for (int j = 0; j < ny; ++j)
       for (int i = 0; i < nx; ++i) {
         if (!input.goal[spec.index(i, j, k)]) continue;
         const std::size_t p = paddedIndex(i, j, k);
         cells[p].cost = 0.0f;
-        if (cells[p].slot == kKnown) cells[p].slot = kFar;
-        if (cells[p].slot == kFar) heap.push(static_cast<std::uint32_t>(p), 0.0f);
+        enter(p, 0.0f);
       }
 
-  // cells with a start value enter the heap with it (a goal cell keeps 0) and keep it: no update lowers it
+  // cells with a start value (a goal cell keeps 0) keep it: no update lowers it
   std::vector<std::uint8_t> fixedCell;
   if (!input.start.empty()) {
     fixedCell.assign(cells.size(), 0);
@@ -231,12 +239,7 @@ Grid3<float> fastMarching(const FastMarchingInput& input) {
           if (!(v < kInf) || input.goal[spec.index(i, j, k)]) continue;
           const std::size_t p = paddedIndex(i, j, k);
           fixedCell[p] = 1;
-          if (cells[p].slot == kKnown) cells[p].slot = kFar;  // impassable: as for goals, a start value wins
-          if (cells[p].slot == kFar) {
-            heap.push(static_cast<std::uint32_t>(p), v);
-          } else if (v < heap.keyAt(cells[p].slot)) {
-            heap.decrease(cells[p].slot, static_cast<std::uint32_t>(p), v);
-          }
+          enter(p, v);
         }
   }
 

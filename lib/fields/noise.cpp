@@ -7,7 +7,7 @@
 #include <limits>
 #include <utility>
 
-#if defined(__GNUC__) && defined(__x86_64__)
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(SWARMSIM_PORTABLE_LANES)
 #define SWARMSIM_X86_LANES 1
 #define SWARMSIM_AVX __attribute__((target("avx")))
 #endif

@@ -141,27 +141,13 @@ class UniformGrid {
     }
   }
 
-  // call f(begin, end) for each run [begin, end) of sorted positions that can hold points within r of some
-  // point of cell c (the rows gatherCell would gather, in the same order; rows may be empty). For every point
-  // q of cell c, forEachRun(q, r) visits a subset of these rows (with their runs cut to fewer cells), in this
-  // order.
-  template <typename F>
-  void forEachCellRun(std::size_t c, float r, F&& f) const {
-    int lo[3], hi[3];
-    cellBox(c, r, lo, hi);
-    for (int cz = lo[2]; cz <= hi[2]; ++cz) {
-      for (int cy = lo[1]; cy <= hi[1]; ++cy) {
-        const std::size_t row = (static_cast<std::size_t>(cz) * dims_[1] + cy) * dims_[0];
-        f(start_[row + lo[0]], start_[row + hi[0] + 1]);
-      }
-    }
-  }
-
   // rows of cells: row = cz * dim(1) + cy, for row < rowCount()
   std::size_t rowCount() const { return static_cast<std::size_t>(dims_[1]) * dims_[2]; }
   // call f(c, runs, nRuns) for every non-empty cell c of `row`, in x order, where runs[2 i], runs[2 i + 1]
-  // (i < nRuns) are the non-empty runs of forEachCellRun(c, r), in its order. The neighbouring rows are found
-  // once per row (no division per cell). `runs` is the caller's scratch (grown here, kept between calls).
+  // (i < nRuns) are the non-empty runs [begin, end) of sorted positions that can hold points within r of some
+  // point of c: the rows gatherCell(c, r) gathers, in its order, so for every point q of c, forEachRun(q, r)
+  // visits a subset of them. The neighbouring rows are found once per row (no division per cell). `runs` is
+  // the caller's scratch (grown here, kept between calls).
   template <typename F>
   void forEachCellOfRow(std::size_t row, float r, std::vector<std::uint32_t>& runs, F&& f) const {
     const int cy = static_cast<int>(row % static_cast<std::size_t>(dims_[1]));

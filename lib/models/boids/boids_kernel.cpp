@@ -67,22 +67,22 @@ inline void addHits(const BoidsLanesInput& in, std::uint32_t* idx, std::size_t m
   }
 }
 
-// out[a][0..8] for each agent a0 + a of the cell whose rows are in `cells` (chunks of up to eight sorted
-// positions): the lane-tree sums of rep (before negation), ali and att, axis by axis. Each agent tests the
+// out[a][0..8] for each agent a0 + a of the cell whose rows are h.chunkStart/chunkSize[0, nChunks) (chunks of up
+// to eight sorted positions): the lane-tree sums of rep (before negation), ali and att, axis by axis. Each agent tests the
 // chunks eight candidates at a time for those within R3 (squared distances only); the hits' sorted positions
 // are packed in scan order and summed eight at a time (hit e in lane e % 8), so square roots and divisions go
-// to hits alone. kAvx2: pack by AVX2's table look-up (packLaneIndices) and load hits with its gathers (the
-// same result as the plain loops).
+// to hits alone. kAvx2: pack by AVX2's table look-up (packSetLanes) and load hits with its gathers (the same
+// result as the plain loops).
 template <typename L, bool kAvx2>
-inline void boidsLanes(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_t a1, const BoidsScratch& cells,
-                       std::size_t nChunks, const BoidsZones& z, BoidsScratch& h, std::array<float, 9>* out) {
+inline void boidsLanes(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_t a1, std::size_t nChunks,
+                       const BoidsZones& z, BoidsScratch& h, std::array<float, 9>* out) {
   using V = typename L::V;
   const V r3sq = L::set1(z.r3sq), zero = L::set1(0.0f), lane = L::load(kLaneIndex);
   const float* px = in.x;
   const float* py = in.y;
   const float* pz = in.z;
-  const std::uint32_t* chunkStart = cells.chunkStart.data();
-  const float* chunkSize = cells.chunkSize.data();
+  const std::uint32_t* chunkStart = h.chunkStart.data();
+  const float* chunkSize = h.chunkSize.data();
   std::uint32_t* hit = h.hits.data();
   const std::size_t room = h.hits.size() - 2 * kLanes;
   for (std::uint32_t k = a0; k < a1; ++k) {
@@ -99,15 +99,7 @@ inline void boidsLanes(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_
       const V dx = L::sub(L::load(px + j), q[0]), dy = L::sub(L::load(py + j), q[1]);
       const V dz = L::sub(L::load(pz + j), q[2]);
       const V d2 = L::add(L::add(L::mul(dx, dx), L::mul(dy, dy)), L::mul(dz, dz));
-      unsigned bits = L::mask(L::band(live, L::band(L::le(d2, r3sq), L::gt(d2, zero))));
-#if SWARMSIM_X86_LANES
-      if constexpr (kAvx2) {
-        m += packLaneIndices(j, bits, hit + m);
-      } else
-#endif
-      {
-        for (; bits; bits &= bits - 1u) hit[m++] = j + static_cast<std::uint32_t>(__builtin_ctz(bits));
-      }
+      m += packSetLanes<kAvx2>(j, L::mask(L::band(live, L::band(L::le(d2, r3sq), L::gt(d2, zero)))), hit + m);
       if (m >= room) {  // full: sum the whole groups, keep the rest at the start
         const std::size_t whole = m / kLanes * kLanes;
         addHits<L, kAvx2>(in, hit, whole, q, z, acc);
@@ -125,13 +117,13 @@ inline void boidsLanes(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_
   const BoidsLanesInput &in, std::uint32_t a0, std::uint32_t a1, std::size_t nChunks, const BoidsZones &z, \
       BoidsScratch &h, std::array<float, 9> *out
 __attribute__((flatten)) void boidsSse(SWARMSIM_BOIDS_ARGS) {
-  boidsLanes<SseLanes, false>(in, a0, a1, h, nChunks, z, h, out);
+  boidsLanes<SseLanes, false>(in, a0, a1, nChunks, z, h, out);
 }
 SWARMSIM_AVX __attribute__((flatten)) void boidsAvx(SWARMSIM_BOIDS_ARGS) {
-  boidsLanes<AvxLanes, false>(in, a0, a1, h, nChunks, z, h, out);
+  boidsLanes<AvxLanes, false>(in, a0, a1, nChunks, z, h, out);
 }
 SWARMSIM_AVX2 __attribute__((flatten)) void boidsAvx2(SWARMSIM_BOIDS_ARGS) {
-  boidsLanes<AvxLanes, true>(in, a0, a1, h, nChunks, z, h, out);
+  boidsLanes<AvxLanes, true>(in, a0, a1, nChunks, z, h, out);
 }
 #undef SWARMSIM_BOIDS_ARGS
 #endif
@@ -139,7 +131,6 @@ SWARMSIM_AVX2 __attribute__((flatten)) void boidsAvx2(SWARMSIM_BOIDS_ARGS) {
 }  // namespace
 
 void BoidsLanesInput::prepare(const UniformGrid& grid) {
-  static_assert(UniformGrid::kSortedPad >= kPad, "the grid pads its sorted positions for whole lanes");
   x = grid.sortedX().data();
   y = grid.sortedY().data();
   z = grid.sortedZ().data();

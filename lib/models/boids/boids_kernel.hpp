@@ -1,11 +1,12 @@
 #pragma once
 // The boids model's neighbour sums, eight candidates at a time (core/lanes.hpp:
-// AVX or SSE chosen at run time, the same bits either way). Each agent scans the
-// grid rows its ball overlaps straight from the sorted arrays (no gathered copy):
-// a row's candidates sit in lanes 0..7, 8..15, ... of its run, the lanes past the
-// run masked off, and each lane keeps its own partial sums, which are added in a
-// fixed tree at the end. The result depends on the positions and velocities
-// only, never on threads or the instruction set.
+// AVX2, AVX or SSE chosen at run time, the same bits with each). The model
+// walks the grid's cells; each cell's neighbourhood rows, read in place from
+// the grid's sorted arrays, are cut into chunks of up to eight. Each agent of
+// the cell tests every chunk for neighbours within R3 (squared distances only),
+// packs their positions in scan order, and sums them eight at a time: hit e in
+// lane e % 8, the lanes added in a fixed tree at the end. The result depends on
+// the positions and velocities only, never on threads or the instruction set.
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -20,7 +21,7 @@ namespace swarmsim {
 // velocities (padded here), each with at least kPad entries past the agent count (whole-lane loads read them;
 // their values are masked off)
 struct BoidsLanesInput {
-  static constexpr std::size_t kPad = 8;
+  static constexpr std::size_t kPad = UniformGrid::kSortedPad;
   const float* x = nullptr;
   const float* y = nullptr;
   const float* z = nullptr;
@@ -34,13 +35,14 @@ struct BoidsZones {
   float r1sq, r2sq, r3sq, cosHalfFov;
 };
 
-// per-thread scratch: the hits of one agent, packed (a full buffer is summed and emptied), and a cell's rows
+// per-thread scratch: the hits of one agent, packed (a full buffer is summed and emptied), a row's runs, a
+// cell's chunks, and the model's sums of one cell
 struct BoidsScratch {
   static constexpr std::size_t kRoom = 256;
-  std::vector<std::uint32_t> hits;  // sorted positions of one agent's hits, packed
-  std::vector<std::uint32_t> runs;        // a row's cells' runs (UniformGrid::forEachCellOfRow)
-  std::vector<std::uint32_t> chunkStart;  // a cell's rows in chunks of up to eight: first sorted position
-  std::vector<float> chunkSize;           // and size (as a float, for the lane mask)
+  std::vector<std::uint32_t> hits;         // sorted positions of one agent's hits, packed
+  std::vector<std::uint32_t> runs;         // a row's cells' runs (UniformGrid::forEachCellOfRow)
+  std::vector<std::uint32_t> chunkStart;   // a cell's rows in chunks of up to eight: first sorted position
+  std::vector<float> chunkSize;            // and size (as a float, for the lane mask)
   std::vector<std::array<float, 9>> sums;  // the model's: boidsCellSums' output for one cell
   BoidsScratch();
 };

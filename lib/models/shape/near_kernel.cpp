@@ -85,8 +85,8 @@ inline void zonalLanes(const NearScratch& s, std::size_t m, const ZoneLanes& z, 
   }
 }
 
-// kAvx2: the indices of each class packed by an AVX2 table look-up (packLaneIndices), without a branch per
-// entry; the same result as the loops over the set bits
+// kAvx2: the indices of each class packed by an AVX2 table look-up (packSetLanes), without a branch per
+// entry; the same result as the loop over the set bits
 template <typename L, bool kAvx2>
 inline void classifyLanes(std::size_t m, float qx, float qy, float qz, float threshold, float near2, float reach2,
                           NearScratch& s, std::size_t counts[3]) {
@@ -109,17 +109,9 @@ inline void classifyLanes(std::size_t m, float qx, float qy, float qz, float thr
     const auto base = static_cast<std::uint32_t>(e);
     const unsigned inCon = L::mask(L::band(L::lt(man, thr), L::gt(d2, zero)));
     const unsigned inNear = L::mask(L::le(d2, vnear)), inReach = L::mask(L::le(d2, vreach));
-#if SWARMSIM_X86_LANES
-    if constexpr (kAvx2) {
-      nc += packLaneIndices(base, inCon, con + nc);
-      nn += packLaneIndices(base, inNear, nr + nn);
-      nm += packLaneIndices(base, inReach, md + nm);
-      continue;
-    }
-#endif
-    for (unsigned bits = inCon; bits; bits &= bits - 1u) con[nc++] = base + static_cast<std::uint32_t>(__builtin_ctz(bits));
-    for (unsigned bits = inNear; bits; bits &= bits - 1u) nr[nn++] = base + static_cast<std::uint32_t>(__builtin_ctz(bits));
-    for (unsigned bits = inReach; bits; bits &= bits - 1u) md[nm++] = base + static_cast<std::uint32_t>(__builtin_ctz(bits));
+    nc += packSetLanes<kAvx2>(base, inCon, con + nc);
+    nn += packSetLanes<kAvx2>(base, inNear, nr + nn);
+    nm += packSetLanes<kAvx2>(base, inReach, md + nm);
   }
   counts[0] = nc;
   counts[1] = nn;

@@ -12,7 +12,6 @@
 
 #include "core/lanes.hpp"
 #include "core/vec.hpp"
-#include "spatial/uniform_grid.hpp"
 
 namespace swarmsim {
 

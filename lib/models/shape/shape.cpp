@@ -311,8 +311,8 @@ class ShapeModel final : public Model {
       parallelFor(n, [&](std::size_t k) { posOfId_[ids_[k]] = static_cast<std::uint32_t>(k); });
     }
     const ZoneLanes zoneLanes = {zones.rRep2, zones.rAli2, zones.rAtt2, {zones.w[0], zones.w[1], zones.w[2]}};
-    const bool avx = useAvx();
     const LaneSet lanes = laneSet();
+    const bool avx = lanes != LaneSet::kSse;  // for the kernels without an AVX2 variant
     // F_con (into fCon) and F_int (returned) of sorted insect k from its near-list candidates. Every sum runs
     // over the entries that count, packed in id order, so it depends on the positions only.
     const float mdReach2 = mdReach * mdReach * (1.0f + 1e-5f);  // float slack: a larger radius is harmless
