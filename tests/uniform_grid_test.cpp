@@ -508,6 +508,65 @@ TEST_CASE("UniformGrid order and gather", "[grid]") {
   CHECK(bad == 0);
 }
 
+TEST_CASE("UniformGrid counting sort: points in any order or in last build's cell order, any thread count, give the "
+          "stable cell order", "[grid]") {
+  // the build sorts by one of two ways: per-thread cursors over each thread's range of cells when the points
+  // come nearly in cell order (as every model keeps its state), else on one thread; both must give the
+  // order of a plain stable sort by cell, and so must every thread count
+  std::mt19937 rng(21);
+  Points p = randomPoints(rng, 20000, -4.0f, 4.0f);
+  for (int i = 0; i < 300; ++i) p.add(p.x[static_cast<std::size_t>(i)], p.y[static_cast<std::size_t>(i)], 1.0f);
+  const auto check = [](const UniformGrid& g, const Points& q) {
+    REQUIRE(g.order().size() == q.size());
+    std::vector<std::uint32_t> seen = g.order();
+    std::sort(seen.begin(), seen.end());
+    std::size_t missing = 0, elsewhere = 0, unstable = 0;
+    for (std::size_t i = 0; i < seen.size(); ++i) missing += seen[i] == i ? 0 : 1;  // a permutation
+    for (std::size_t c = 0; c < g.cellCount(); ++c) {
+      for (std::uint32_t k = g.cellBegin(c); k < g.cellEnd(c); ++k) {
+        const std::uint32_t i = g.order()[k];
+        int lo[3], hi[3];
+        g.cellRange(q.x[i], q.y[i], q.z[i], 0.0f, lo, hi);  // the point's own cell
+        const std::size_t own = (static_cast<std::size_t>(lo[2]) * g.dim(1) + lo[1]) * g.dim(0) + lo[0];
+        elsewhere += own == c ? 0 : 1;
+        if (k > g.cellBegin(c)) unstable += g.order()[k - 1] < i ? 0 : 1;  // in point index order
+      }
+    }
+    CHECK(missing == 0);
+    CHECK(elsewhere == 0);
+    CHECK(unstable == 0);
+  };
+  // the points in the cell order of a first build (the case of a model's state from the second step on)
+  const auto inCellOrder = [](const UniformGrid& g, const Points& q) {
+    Points s;
+    for (std::size_t k = 0; k < q.size(); ++k) {
+      const std::uint32_t i = g.order()[k];
+      s.add(q.x[i], q.y[i], q.z[i]);
+    }
+    return s;
+  };
+  std::vector<std::vector<std::uint32_t>> orders;
+  const ThreadCountGuard restore;
+  for (const int threads : {1, 2, 3}) {
+    swarmsim::setThreadCount(threads);
+    UniformGrid g;
+    build(g, p, 0.2f);  // any order (a random cloud)
+    check(g, p);
+    requirePermutationAndSorted(g, p);
+    orders.push_back(g.order());
+    const Points sorted = inCellOrder(g, p);
+    UniformGrid h;
+    h.build(sorted.x.data(), sorted.y.data(), sorted.z.data(), sorted.size(), 0.2f, 2.0, false);
+    check(h, sorted);
+    CHECK(h.sortedX().empty());  // no copies asked for
+    std::size_t moved = 0;  // points already in cell order stay where they are
+    for (std::size_t k = 0; k < sorted.size(); ++k) moved += h.order()[k] == k ? 0 : 1;
+    CHECK(moved == 0);
+  }
+  CHECK(orders[0] == orders[1]);
+  CHECK(orders[0] == orders[2]);
+}
+
 TEST_CASE("UniformGrid small and invalid inputs", "[grid]") {
   UniformGrid g;
   Points empty;

@@ -11,7 +11,7 @@
 namespace swarmsim {
 
 void UniformGrid::build(const float* x, const float* y, const float* z, std::size_t n, float minCell,
-                        double cellsPerPoint) {
+                        double cellsPerPoint, bool sortedCopies) {
   if (!(minCell > 0.0f)) throw std::invalid_argument("UniformGrid::build: cell size must be > 0");
   // bounding box: per-chunk min/max, then combined (exact, so order-free)
   constexpr float kBig = std::numeric_limits<float>::max();
@@ -68,46 +68,73 @@ void UniformGrid::build(const float* x, const float* y, const float* z, std::siz
   }
 
   const std::size_t ncell = static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2];
+  // counting sort, stable in point index. Each chunk of points (one per thread, in index order) counts and
+  // places its points with cursors over the range of cells it touches; a state kept in last step's cell order
+  // (every model writes it so) gives each chunk a slice of the cells, so the cursors take about one entry per
+  // cell in all. Otherwise (the first step, points in any order) one thread sorts with start_ alone.
   cell_.resize(n);
-  parallelFor(n, [&](std::size_t i) {
-    const std::size_t c =
-        (static_cast<std::size_t>(cellCoord(z[i], 2)) * dims_[1] + cellCoord(y[i], 1)) * dims_[0] + cellCoord(x[i], 0);
-    cell_[i] = static_cast<std::uint32_t>(c);
+  const int teams = chunkCount(n);
+  auto& range = rangeParts_;  // per chunk: its lowest and highest cell
+  range.resize(static_cast<std::size_t>(teams));
+  parallelChunks(n, [&](std::size_t first, std::size_t last, int t) {
+    std::uint32_t low = 0xffffffffu, high = 0;
+    for (std::size_t i = first; i < last; ++i) {
+      const auto c = static_cast<std::uint32_t>(
+          (static_cast<std::size_t>(cellCoord(z[i], 2)) * dims_[1] + cellCoord(y[i], 1)) * dims_[0] +
+          cellCoord(x[i], 0));
+      cell_[i] = c;
+      low = std::min(low, c);
+      high = std::max(high, c);
+    }
+    range[static_cast<std::size_t>(t)] = {low, high};
   });
-  // counting sort, stable in point index
+  std::size_t span = 0;
+  for (const auto& r : range) span += r[0] <= r[1] ? r[1] - r[0] + 1 : 0;
   start_.assign(ncell + 1, 0);
   order_.resize(n);
-  const int teams = chunkCount(n);
-  if (teams > 1 && ncell <= 4 * n) {
-    // parallel: each chunk counts and then places its own contiguous range of
-    // points; chunks are in index order, so the result equals the serial sort
-    const std::size_t T = static_cast<std::size_t>(teams);
-    cursor_.assign(T * ncell, 0);  // per-chunk counts, then per-chunk cursors
+  std::uint32_t* start = start_.data();
+  if (teams > 1 && span <= ncell + ncell / 4) {
+    // per chunk: counts, then cursors, over its cells [lo, hi] (cursor_ holds the chunks' ranges one after another)
+    cursor_.assign(span, 0);
+    std::vector<std::size_t>& base = rangeBase_;
+    base.assign(static_cast<std::size_t>(teams) + 1, 0);
+    for (std::size_t t = 0; t < range.size(); ++t) {
+      base[t + 1] = base[t] + (range[t][0] <= range[t][1] ? range[t][1] - range[t][0] + 1 : 0);
+    }
     parallelChunks(n, [&](std::size_t first, std::size_t last, int t) {
-      std::uint32_t* count = cursor_.data() + static_cast<std::size_t>(t) * ncell;
-      for (std::size_t i = first; i < last; ++i) ++count[cell_[i]];
+      std::uint32_t* count = cursor_.data() + base[static_cast<std::size_t>(t)];
+      const std::uint32_t low = range[static_cast<std::size_t>(t)][0];
+      for (std::size_t i = first; i < last; ++i) ++count[cell_[i] - low];
     });
-    std::uint32_t base = 0;
+    // cell by cell, the chunks in index order: each chunk's first slot in the cell, and the cell's start
+    std::uint32_t at = 0;
     for (std::size_t c = 0; c < ncell; ++c) {
-      start_[c] = base;
-      for (std::size_t t = 0; t < T; ++t) {
-        std::uint32_t& slot = cursor_[t * ncell + c];
+      start[c] = at;
+      for (std::size_t t = 0; t < range.size(); ++t) {
+        if (c < range[t][0] || c > range[t][1]) continue;
+        std::uint32_t& slot = cursor_[base[t] + (c - range[t][0])];
         const std::uint32_t cnt = slot;
-        slot = base;
-        base += cnt;
+        slot = at;
+        at += cnt;
       }
     }
-    start_[ncell] = base;
+    start[ncell] = at;
     parallelChunks(n, [&](std::size_t first, std::size_t last, int t) {
-      std::uint32_t* next = cursor_.data() + static_cast<std::size_t>(t) * ncell;
-      for (std::size_t i = first; i < last; ++i) order_[next[cell_[i]]++] = static_cast<std::uint32_t>(i);
+      std::uint32_t* cursor = cursor_.data() + base[static_cast<std::size_t>(t)];
+      const std::uint32_t low = range[static_cast<std::size_t>(t)][0];
+      for (std::size_t i = first; i < last; ++i) order_[cursor[cell_[i] - low]++] = static_cast<std::uint32_t>(i);
     });
   } else {
-    for (std::size_t i = 0; i < n; ++i) ++start_[cell_[i] + 1];
-    for (std::size_t c = 0; c < ncell; ++c) start_[c + 1] += start_[c];
-    std::vector<std::uint32_t>& next = cursor_;
-    next.assign(start_.begin(), start_.end() - 1);
-    for (std::size_t i = 0; i < n; ++i) order_[next[cell_[i]]++] = static_cast<std::uint32_t>(i);
+    // counts, their running sums (the end of each cell), then the points placed backwards from each end: in
+    // index order within a cell, and start_[c] ends at the cell's start
+    for (std::size_t i = 0; i < n; ++i) ++start[cell_[i]];
+    for (std::size_t c = 1; c < ncell; ++c) start[c] += start[c - 1];
+    start[ncell] = static_cast<std::uint32_t>(n);
+    for (std::size_t i = n; i-- > 0;) order_[--start[cell_[i]]] = static_cast<std::uint32_t>(i);
+  }
+  if (!sortedCopies) {
+    for (auto* a : {&sx_, &sy_, &sz_}) std::vector<float>().swap(*a);
+    return;
   }
   for (auto* a : {&sx_, &sy_, &sz_}) {
     a->resize(n + kSortedPad);

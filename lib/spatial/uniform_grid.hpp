@@ -84,8 +84,12 @@ class UniformGrid {
  public:
   // bin n points; minCell > 0 is the smallest allowed cell edge (usually the
   // largest query radius, so queries visit 3x3x3 cells); cells are coarsened
-  // until there are at most cellsPerPoint * n + 64 of them
-  void build(const float* x, const float* y, const float* z, std::size_t n, float minCell, double cellsPerPoint = 2.0);
+  // until there are at most cellsPerPoint * n + 64 of them. Without sortedCopies
+  // the grid keeps no positions (sortedX/Y/Z are empty, and so is everything
+  // that reads them: gatherCell, gatherAround, forEachNeighbor): for a caller
+  // that puts its own arrays in cell order (boids, to save 12 bytes per point).
+  void build(const float* x, const float* y, const float* z, std::size_t n, float minCell, double cellsPerPoint = 2.0,
+             bool sortedCopies = true);
 
   std::size_t size() const { return order_.size(); }
   // sorted position k -> original point index
@@ -103,8 +107,6 @@ class UniformGrid {
   // sorted positions [cellBegin(c), cellEnd(c)) are the points of cell c
   std::uint32_t cellBegin(std::size_t c) const { return start_[c]; }
   std::uint32_t cellEnd(std::size_t c) const { return start_[c + 1]; }
-  // the cell of original point i
-  std::size_t cellOfPoint(std::uint32_t i) const { return cell_[i]; }
   // gather into `block` every point of the cells that can hold a point within
   // r of some point of cell c (a superset; use CellBlock::filter per query)
   void gatherCell(std::size_t c, float r, CellBlock& block) const;
@@ -223,7 +225,9 @@ class UniformGrid {
   std::vector<std::uint32_t> cell_;              // cell of each point (n)
   std::vector<std::uint32_t> start_;             // first sorted position of each cell (cells + 1)
   std::vector<std::uint32_t> order_;             // sorted position -> point index (n)
-  std::vector<std::uint32_t> cursor_;            // scratch for the counting sort (cells)
+  std::vector<std::uint32_t> cursor_;            // scratch for the counting sort (about one per cell)
+  std::vector<std::array<std::uint32_t, 2>> rangeParts_;  // build scratch: each chunk's lowest and highest cell
+  std::vector<std::size_t> rangeBase_;                    // build scratch: each chunk's first cursor
   std::vector<float> sx_, sy_, sz_;              // positions in sorted order (n + kSortedPad)
   std::vector<std::array<float, 7>> bboxParts_;  // per-chunk bounding boxes (build scratch)
 };

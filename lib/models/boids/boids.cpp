@@ -1,7 +1,9 @@
 #include "models/boids/boids.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstring>
 
 #include "core/lanes.hpp"
 #include "core/parallel.hpp"
@@ -41,13 +43,13 @@ class Boids final : public Model {
 
   void step(const World& world, SwarmState& s, const StepInfo& info) override {
     const std::size_t n = s.size();
-    // the grid (one rebuild per step), then unit velocities in cell order
-    grid_.build(s.px.data(), s.py.data(), s.pz.data(), n, r3_);
-    const auto& order = grid_.order();
-    lanes_.prepare(grid_);
-    next_.resizeStorage(n);
+    // the grid (one rebuild per step), then the state put in its cell order (the kernel reads the positions
+    // in place: the grid keeps no copy) and the unit velocities in that order
+    grid_.build(s.px.data(), s.py.data(), s.pz.data(), n, r3_, 2.0, false);
+    putInCellOrder(s);
+    lanes_.prepare(s.px.data(), s.py.data(), s.pz.data(), n);
     parallelFor(n, [&](std::size_t k) {
-      const Vec3 u = normalizedOrZero(s.velocity(order[k]));
+      const Vec3 u = normalizedOrZero(s.velocity(k));
       lanes_.ux[k] = u.x();
       lanes_.uy[k] = u.y();
       lanes_.uz[k] = u.z();
@@ -74,9 +76,10 @@ class Boids final : public Model {
     const std::uint32_t swarmIndex = info.swarmIndex;
     const LaneSet laneKind = laneSet();
     scratch_.resize(static_cast<std::size_t>(threadCount()));
+    // phase 2 (agent by agent, right after its sums): its new velocity, in place (its neighbours read the
+    // unit velocities' copy)
     const auto agent = [&](std::size_t k, const float sums[9]) {
-      const std::uint32_t i = order[k];
-      const Vec3 x(lanes_.x[k], lanes_.y[k], lanes_.z[k]), v = s.velocity(i);
+      const Vec3 x(s.px[k], s.py[k], s.pz[k]), v = s.velocity(k);
       const Vec3 vhat(lanes_.ux[k], lanes_.uy[k], lanes_.uz[k]);
       const Vec3 rep = -Vec3(sums[0], sums[1], sums[2]), ali(sums[3], sums[4], sums[5]), att(sums[6], sums[7], sums[8]);
       Vec3 u = vhat * smin + rep * fr + ali * fa + att * ft + centerPull(center - x, invCr) * fc;
@@ -90,7 +93,7 @@ class Boids final : public Model {
       }
       u += wall * fw;
       if (jitter) {
-        AgentRng rng(seed, stepIndex, s.id[i], RngPurpose::kJitter, swarmIndex);
+        AgentRng rng(seed, stepIndex, s.id[k], RngPurpose::kJitter, swarmIndex);
         u += rng.normal3() * noise;
       }
       Vec3 nv = v + (u - v) * blend;
@@ -102,15 +105,9 @@ class Boids final : public Model {
         const Vec3 dirv = sp > 1e-12f ? Vec3(nv / sp) : (vhat.squaredNorm() > 0.0f ? vhat : Vec3(1.0f, 0.0f, 0.0f));
         nv = dirv * smin;
       }
-      // the new state goes to a separate buffer, in cell order (spatial sorting
-      // keeps the next step's memory accesses local); nothing reads it this step
-      next_.id[k] = s.id[i];
-      next_.vx[k] = nv.x();
-      next_.vy[k] = nv.y();
-      next_.vz[k] = nv.z();
-      next_.px[k] = x.x() + nv.x() * dt;
-      next_.py[k] = x.y() + nv.y() * dt;
-      next_.pz[k] = x.z() + nv.z() * dt;
+      s.vx[k] = nv.x();
+      s.vy[k] = nv.y();
+      s.vz[k] = nv.z();
     };
     // row by row of cells (the neighbouring rows found once per row), cell by cell along it
     const auto row = [&](std::size_t rowIndex) {
@@ -129,17 +126,46 @@ class Boids final : public Model {
     } else {
       parallelForDynamic(rows, std::clamp<std::size_t>(rows / (16 * scratch_.size()), 1, 16), row);
     }
-    // phase 2: the new state becomes current
-    s.swapStorage(next_);
+    // phase 3: the moves, once no neighbour reads the old positions
+    parallelFor(n, [&](std::size_t k) {
+      s.px[k] += s.vx[k] * dt;
+      s.py[k] += s.vy[k] * dt;
+      s.pz[k] += s.vz[k] * dt;
+    });
   }
 
  private:
   BoidsParams p_;
   float r1_, r2_, r3_, cosHalfFov_;
   UniformGrid grid_;
+  // the whole state in the grid's cell order, with no second copy of it (docs/performance.md#memory): three
+  // arrays at a time gathered into the unit velocities' arrays (not yet written this step), which then swap
+  // with them; the ids through one of them. A state kept in last step's order is nearly in this one, so the
+  // reads are nearly in sequence.
+  void putInCellOrder(SwarmState& s) {
+    const std::size_t n = s.size();
+    const auto& order = grid_.order();
+    std::array<std::vector<float>*, 3> buf = {&lanes_.ux, &lanes_.uy, &lanes_.uz};
+    for (auto* b : buf) b->resize(n + BoidsLanesInput::kPad);  // once: they keep their room after swaps
+    const std::array<std::array<std::vector<float>*, 3>, 2> groups = {{{&s.px, &s.py, &s.pz}, {&s.vx, &s.vy, &s.vz}}};
+    for (const auto& three : groups) {
+      parallelFor(n, [&](std::size_t k) {
+        const std::uint32_t i = order[k];
+        for (int c = 0; c < 3; ++c) (*buf[c])[k] = (*three[c])[i];
+      });
+      for (int c = 0; c < 3; ++c) {
+        three[c]->swap(*buf[c]);
+        three[c]->resize(n);
+        buf[c]->resize(n + BoidsLanesInput::kPad);
+      }
+    }
+    float* t = lanes_.ux.data();
+    parallelFor(n, [&](std::size_t k) { std::memcpy(t + k, &s.id[order[k]], sizeof(float)); });
+    parallelFor(n, [&](std::size_t k) { std::memcpy(&s.id[k], t + k, sizeof(float)); });
+  }
+
   // scratch, reused every step (no allocation once sized)
-  BoidsLanesInput lanes_;  // positions and unit velocities by sorted position
-  SwarmState next_;        // the state being written in phase 2
+  BoidsLanesInput lanes_;  // the state's positions (in place) and unit velocities, in cell order
   std::vector<BoidsScratch> scratch_;  // per thread
 };
 

@@ -67,7 +67,7 @@ inline void addHits(const BoidsLanesInput& in, std::uint32_t* idx, std::size_t m
   }
 }
 
-// out[a][0..8] for each agent a0 + a of the cell whose rows are h.chunkStart/chunkSize[0, nChunks) (chunks of up
+// out[a][0..8] for each agent a0 + a of the cell whose rows are h.chunkStart/chunkLo/chunkHi[0, nChunks) (chunks of up
 // to eight sorted positions): the lane-tree sums of rep (before negation), ali and att, axis by axis. Each agent tests the
 // chunks eight candidates at a time for those within R3 (squared distances only); the hits' sorted positions
 // are packed in scan order and summed eight at a time (hit e in lane e % 8), so square roots and divisions go
@@ -82,7 +82,8 @@ inline void boidsLanes(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_
   const float* py = in.y;
   const float* pz = in.z;
   const std::uint32_t* chunkStart = h.chunkStart.data();
-  const float* chunkSize = h.chunkSize.data();
+  const float* chunkLo = h.chunkLo.data();
+  const float* chunkHi = h.chunkHi.data();
   std::uint32_t* hit = h.hits.data();
   const std::size_t room = h.hits.size() - 2 * kLanes;
   for (std::uint32_t k = a0; k < a1; ++k) {
@@ -95,7 +96,7 @@ inline void boidsLanes(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_
     // hits: a chunk without any packs nothing
     for (std::size_t c = 0; c < nChunks; ++c) {
       const std::uint32_t j = chunkStart[c];
-      const V live = L::lt(lane, L::set1(chunkSize[c]));  // lanes inside the run
+      const V live = L::band(L::le(L::set1(chunkLo[c]), lane), L::lt(lane, L::set1(chunkHi[c])));  // in the run
       const V dx = L::sub(L::load(px + j), q[0]), dy = L::sub(L::load(py + j), q[1]);
       const V dz = L::sub(L::load(pz + j), q[2]);
       const V d2 = L::add(L::add(L::mul(dx, dx), L::mul(dy, dy)), L::mul(dz, dz));
@@ -130,39 +131,60 @@ SWARMSIM_AVX2 __attribute__((flatten)) void boidsAvx2(SWARMSIM_BOIDS_ARGS) {
 
 }  // namespace
 
-void BoidsLanesInput::prepare(const UniformGrid& grid) {
-  x = grid.sortedX().data();
-  y = grid.sortedY().data();
-  z = grid.sortedZ().data();
-  for (auto* a : {&ux, &uy, &uz}) a->resize(grid.size() + kPad, 0.0f);
+void BoidsLanesInput::prepare(const float* px, const float* py, const float* pz, std::size_t count) {
+  n = count;
+  x = px;
+  y = py;
+  z = pz;
+  if (n < kLanes) {  // too few to shift a chunk back inside them: padded copies
+    for (auto* a : {&tx_, &ty_, &tz_}) a->assign(kLanes + kPad, 0.0f);
+    std::copy(px, px + n, tx_.begin());
+    std::copy(py, py + n, ty_.begin());
+    std::copy(pz, pz + n, tz_.begin());
+    x = tx_.data();
+    y = ty_.data();
+    z = tz_.data();
+  }
+  for (auto* a : {&ux, &uy, &uz}) {
+    a->resize(n + kPad);
+    std::fill(a->begin() + static_cast<std::ptrdiff_t>(n), a->end(), 0.0f);
+  }
 }
 
 BoidsScratch::BoidsScratch() {
   hits.resize(kRoom);
   chunkStart.resize(64);
-  chunkSize.resize(64);
+  chunkLo.resize(64);
+  chunkHi.resize(64);
 }
 
 void boidsCellSums(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_t a1, const std::uint32_t* runs,
                    std::size_t nRuns, const BoidsZones& zones, LaneSet lanes, BoidsScratch& scratch,
                    std::array<float, 9>* out) {
-  static_assert(BoidsLanesInput::kPad >= kLanes, "whole-lane loads read up to 7 entries past a run");
+  static_assert(BoidsLanesInput::kPad >= kLanes, "the hits' gathers may read the unit velocities' padding");
   if (a0 == a1) return;
   // the rows cut into chunks of up to eight
   std::size_t most = 0;
   for (std::size_t r = 0; r < nRuns; ++r) most += (runs[2 * r + 1] - runs[2 * r] + kLanes - 1) / kLanes;
   if (scratch.chunkStart.size() < most) {
     scratch.chunkStart.resize(2 * most);
-    scratch.chunkSize.resize(2 * most);
+    scratch.chunkLo.resize(2 * most);
+    scratch.chunkHi.resize(2 * most);
   }
   std::uint32_t* start = scratch.chunkStart.data();
-  float* size = scratch.chunkSize.data();
+  float* lo = scratch.chunkLo.data();
+  float* hi = scratch.chunkHi.data();
+  // a chunk loads eight positions from its start: one that would read past the last agent starts earlier (by
+  // `back` lanes), its run's lanes then [back, back + size); fewer than eight agents are padded (prepare)
+  const std::size_t last = std::max<std::size_t>(in.n, kLanes) - kLanes;
   std::size_t nChunks = 0;
   for (std::size_t r = 0; r < nRuns; ++r) {
     const std::uint32_t b = runs[2 * r], e = runs[2 * r + 1];
     for (std::uint32_t j = b; j < e; j += kLanes, ++nChunks) {
-      start[nChunks] = j;
-      size[nChunks] = static_cast<float>(std::min<std::uint32_t>(e - j, kLanes));
+      const std::uint32_t back = j > last ? static_cast<std::uint32_t>(j - last) : 0u;
+      start[nChunks] = j - back;
+      lo[nChunks] = static_cast<float>(back);
+      hi[nChunks] = static_cast<float>(back + std::min<std::uint32_t>(e - j, kLanes));
     }
   }
 #if SWARMSIM_X86_LANES

@@ -2,7 +2,7 @@
 // The boids model's neighbour sums, eight candidates at a time (core/lanes.hpp:
 // AVX2, AVX or SSE chosen at run time, the same bits with each). The model
 // walks the grid's cells; each cell's neighbourhood rows, read in place from
-// the grid's sorted arrays, are cut into chunks of up to eight. Each agent of
+// the state (which the model keeps in cell order), are cut into chunks of up to eight. Each agent of
 // the cell tests every chunk for neighbours within R3 (squared distances only),
 // packs their positions in scan order, and sums them eight at a time: hit e in
 // lane e % 8, the lanes added in a fixed tree at the end. The result depends on
@@ -17,17 +17,21 @@
 
 namespace swarmsim {
 
-// the agents in the grid's sorted order: positions (the grid's sortedX/Y/Z, which are padded) and unit
-// velocities (padded here), each with at least kPad entries past the agent count (whole-lane loads read them;
-// their values are masked off)
+// the agents in the grid's sorted order: positions (n of them, read in place: chunks near the end are loaded
+// shifted back so no load reads past n; fewer than eight agents are copied into padded arrays here) and unit
+// velocities (padded here with kPad zeros: the hits' gathers only read entries below n)
 struct BoidsLanesInput {
   static constexpr std::size_t kPad = UniformGrid::kSortedPad;
   const float* x = nullptr;
   const float* y = nullptr;
   const float* z = nullptr;
+  std::size_t n = 0;
   std::vector<float> ux, uy, uz;
-  // the grid's positions, and room for n unit velocities plus the padding (zeros)
-  void prepare(const UniformGrid& grid);
+  // positions x, y, z (n each), and room for n unit velocities plus the padding (zeros)
+  void prepare(const float* px, const float* py, const float* pz, std::size_t count);
+
+ private:
+  std::vector<float> tx_, ty_, tz_;  // padded copies of fewer than eight positions
 };
 
 // the zones: squared radii R1², R2², R3² and the cosine of half the attraction field of view
@@ -41,8 +45,8 @@ struct BoidsScratch {
   static constexpr std::size_t kRoom = 256;
   std::vector<std::uint32_t> hits;         // sorted positions of one agent's hits, packed
   std::vector<std::uint32_t> runs;         // a row's cells' runs (UniformGrid::forEachCellOfRow)
-  std::vector<std::uint32_t> chunkStart;   // a cell's rows in chunks of up to eight: first sorted position
-  std::vector<float> chunkSize;            // and size (as a float, for the lane mask)
+  std::vector<std::uint32_t> chunkStart;   // a cell's rows in chunks of up to eight: first sorted position loaded
+  std::vector<float> chunkLo, chunkHi;     // and its lanes in the run, [lo, hi) (as floats, for the lane mask)
   std::vector<std::array<float, 9>> sums;  // the model's: boidsCellSums' output for one cell
   BoidsScratch();
 };

@@ -298,13 +298,8 @@ class FieldModel final : public Model {
           const std::uint32_t i = order[k];
           MdePush kernel(md);
           kernel.start(sx[k], sy[k], sz[k]);
-          if (sameCell) {
-            const std::size_t c = grid_.cellOfPoint(i);
-            kernel.add(sx, sy, sz, grid_.cellBegin(c), grid_.cellEnd(c));
-          } else {
-            grid_.forEachRun(sx[k], sy[k], sz[k], md,
-                             [&](std::uint32_t b, std::uint32_t e) { kernel.add(sx, sy, sz, b, e); });
-          }
+          grid_.forEachRun(sx[k], sy[k], sz[k], md,
+                           [&](std::uint32_t b, std::uint32_t e) { kernel.add(sx, sy, sz, b, e); });
           Vec3 push = kernel.push();
           bool pushed = kernel.hits() > 0;
           if (kernel.zeros() > 1) {
@@ -315,16 +310,9 @@ class FieldModel final : public Model {
               push.x() += (s.id[i] < s.id[order[j]] ? -0.5f : 0.5f) * md;
               pushed = true;
             };
-            if (sameCell) {
-              const std::size_t c = grid_.cellOfPoint(i);
-              for (std::uint32_t j = grid_.cellBegin(c); j < grid_.cellEnd(c); ++j) {
-                fromCoincident(j, sx[j] - sx[k], sy[j] - sy[k], sz[j] - sz[k]);
-              }
-            } else {
-              grid_.forEachNeighbor(
-                  sx[k], sy[k], sz[k], 0.0f,
-                  [&](std::uint32_t j, float dx, float dy, float dz, float) { fromCoincident(j, dx, dy, dz); });
-            }
+            grid_.forEachNeighbor(
+                sx[k], sy[k], sz[k], 0.0f,
+                [&](std::uint32_t j, float dx, float dy, float dz, float) { fromCoincident(j, dx, dy, dz); });
           }
           movedFlag_[k] = pushed ? 1 : 0;
           next_.id[k] = s.id[i];
