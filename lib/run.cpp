@@ -165,10 +165,10 @@ void Simulation::takeFrameStats(std::vector<std::vector<double>>& out) {
   for (std::size_t i = 0; i < models_.size(); ++i) models_[i]->takeFrameStats(out[i]);
 }
 
-Checkpoint Simulation::checkpoint() const {
-  Checkpoint c;
+CheckpointView Simulation::checkpoint() const {
+  CheckpointView c;
   c.step = step_;
-  c.swarms = swarms_;
+  for (const SwarmState& s : swarms_) c.swarms.push_back(&s);
   for (const auto& m : models_) {
     StateOut out;
     m->saveState(out);
@@ -346,7 +346,7 @@ RunResult runScenario(const Scenario& scenario, const RunOptions& options) {
   bool keepOnError = start != Start::kFresh;
   const auto saveCheckpoint = [&] {
     writer->flush();
-    Checkpoint c = sim.checkpoint();
+    CheckpointView c = sim.checkpoint();
     c.scenario = recordedJson;
     c.frames = writer->framesWritten();
     c.dataHash = writer->dataHash();

@@ -36,8 +36,9 @@ class Simulation {
   // per swarm, the models' statistics since the last call (see Model::takeFrameStats)
   void takeFrameStats(std::vector<std::vector<double>>& out);
   // the state to continue from (steps, swarms, the models' saveState); frames,
-  // hash and scenario are the caller's to fill in
-  Checkpoint checkpoint() const;
+  // hash and scenario are the caller's to fill in. It points at the live
+  // swarms: write it before the next step.
+  CheckpointView checkpoint() const;
   // continue from a checkpoint of the same scenario (throws InputError if it does not fit)
   void restore(const Checkpoint& c, const std::string& file);
 

@@ -15,7 +15,7 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${SWARMSIM_BUILD_DIR:-$root/build}"
 
 packages=(build-essential cmake pkg-config libcli11-dev nlohmann-json3-dev libhdf5-dev
-          hdf5-tools libeigen3-dev libtinyobjloader-dev catch2 libnanoflann-dev libssl-dev libpagmo-dev python3 python3-h5py
+          hdf5-tools libeigen3-dev libtinyobjloader-dev catch2 libnanoflann-dev libssl-dev libpagmo-dev python3 python3-h5py time
           python3-matplotlib)
 if [ "$tools" = 1 ]; then
   packages+=(paraview python3-paraview blender ffmpeg xvfb xauth python3-pandas python3-scikit-fmm)

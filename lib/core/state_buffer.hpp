@@ -13,26 +13,35 @@
 
 namespace swarmsim {
 
-class StateOut {
+// The encoding of checkpoint values (native byte order, sizes as 64-bit counts) onto any sink: Sink has
+// raw(data, n), which takes n bytes. StateOut keeps them in memory; the checkpoint file streams them (io/checkpoint.cpp).
+template <typename Sink>
+class StateEncoder {
  public:
   template <typename T>
   void put(const T& v) {
     static_assert(std::is_trivially_copyable_v<T>, "plain values only");
-    const auto* p = reinterpret_cast<const unsigned char*>(&v);
-    bytes_.insert(bytes_.end(), p, p + sizeof(T));
+    sink().raw(&v, sizeof(T));
   }
   template <typename T>
   void putVector(const std::vector<T>& v) {
     static_assert(std::is_trivially_copyable_v<T>, "plain values only");
     put<std::uint64_t>(v.size());
-    const auto* p = reinterpret_cast<const unsigned char*>(v.data());
-    bytes_.insert(bytes_.end(), p, p + v.size() * sizeof(T));
+    sink().raw(v.data(), v.size() * sizeof(T));
   }
   void putString(const std::string& s) {
     put<std::uint64_t>(s.size());
-    bytes_ += s;
+    sink().raw(s.data(), s.size());
   }
+
+ private:
+  Sink& sink() { return static_cast<Sink&>(*this); }
+};
+
+class StateOut : public StateEncoder<StateOut> {
+ public:
   const std::string& bytes() const { return bytes_; }
+  void raw(const void* data, std::size_t n) { bytes_.append(static_cast<const char*>(data), n); }
 
  private:
   std::string bytes_;

@@ -4,11 +4,15 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
+#include <type_traits>
+#include <vector>
 
 #include "core/error.hpp"
 #include "core/state_buffer.hpp"
@@ -29,6 +33,17 @@ inline std::uint64_t mix(std::uint64_t x) {
   return x;
 }
 
+// 16 bytes into the hash state
+inline void addWord(std::uint64_t& a, std::uint64_t& b, const unsigned char* p) {
+  std::uint64_t w0, w1;
+  std::memcpy(&w0, p, 8);
+  std::memcpy(&w1, p + 8, 8);
+  a = (a ^ w0) * 0x9fb21c651e98df25ULL;
+  b = (b ^ w1) * 0xc2b2ae3d27d4eb4fULL;
+  a = (a << 29) | (a >> 35);
+  b = (b << 31) | (b >> 33);
+}
+
 void writeAll(int fd, const char* data, std::size_t size, const std::string& path) {
   while (size > 0) {
     const ssize_t w = ::write(fd, data, size);
@@ -43,25 +58,95 @@ void writeAll(int fd, const char* data, std::size_t size, const std::string& pat
 
 }  // namespace
 
-std::uint64_t hashBytes(const void* data, std::size_t size, std::uint64_t h) {
+ByteHasher::ByteHasher(std::uint64_t h, std::size_t size) : a_(h ^ 0x9e3779b97f4a7c15ULL), b_(h + size), size_(size) {}
+
+void ByteHasher::update(const void* data, std::size_t n) {
+  if (n == 0) return;  // (data may be null then)
   const auto* p = static_cast<const unsigned char*>(data);
-  std::uint64_t a = h ^ 0x9e3779b97f4a7c15ULL, b = h + size;
-  std::size_t i = 0;
-  for (; i + 16 <= size; i += 16) {
-    std::uint64_t w0, w1;
-    std::memcpy(&w0, p + i, 8);
-    std::memcpy(&w1, p + i + 8, 8);
-    a = (a ^ w0) * 0x9fb21c651e98df25ULL;
-    b = (b ^ w1) * 0xc2b2ae3d27d4eb4fULL;
-    a = (a << 29) | (a >> 35);
-    b = (b << 31) | (b >> 33);
+  seen_ += n;
+  // the state in locals: stores to members could alias the bytes read
+  std::uint64_t a = a_, b = b_;
+  if (partSize_ > 0) {
+    const std::size_t take = std::min(n, sizeof part_ - partSize_);
+    std::memcpy(part_ + partSize_, p, take);
+    partSize_ += take;
+    p += take;
+    n -= take;
+    if (partSize_ < sizeof part_) return;
+    partSize_ = 0;
+    addWord(a, b, part_);
   }
-  for (; i < size; ++i) a = (a ^ p[i]) * 0x100000001b3ULL;
-  return mix(a ^ mix(b));
+  for (; n >= 16; p += 16, n -= 16) addWord(a, b, p);
+  std::memcpy(part_, p, n);
+  partSize_ = n;
+  a_ = a;
+  b_ = b;
 }
 
-void writeCheckpoint(const std::string& path, const Checkpoint& c) {
-  StateOut out;
+std::uint64_t ByteHasher::finish() const {
+  if (seen_ != size_) {
+    throw std::logic_error("ByteHasher: " + std::to_string(seen_) + " bytes hashed, " + std::to_string(size_) +
+                           " announced");
+  }
+  std::uint64_t a = a_;
+  for (std::size_t i = 0; i < partSize_; ++i) a = (a ^ part_[i]) * 0x100000001b3ULL;
+  return mix(a ^ mix(b_));
+}
+
+std::uint64_t hashBytes(const void* data, std::size_t size, std::uint64_t h) {
+  ByteHasher hasher(h, size);
+  hasher.update(data, size);
+  return hasher.finish();
+}
+
+namespace {
+
+// StateOut's encoding of a checkpoint's body, streamed to a file through a
+// bounded buffer and hashed on the way. The hash starts from the body's length,
+// so the body is first put through one that only counts (fd < 0).
+class BodyOut : public StateEncoder<BodyOut> {
+ public:
+  BodyOut(int fd, std::size_t size, const std::string& path) : fd_(fd), path_(path), sum_(0, size) {
+    if (fd_ >= 0) buf_.reserve(kBuffer);
+  }
+  std::size_t size() const { return size_; }
+  // the rest of the body, then its checksum
+  void finish() {
+    flush();
+    const std::uint64_t sum = sum_.finish();
+    writeAll(fd_, reinterpret_cast<const char*>(&sum), sizeof sum, path_);
+  }
+  // StateEncoder's sink
+  void raw(const void* data, std::size_t n) {
+    size_ += n;
+    if (fd_ < 0) return;
+    const auto* p = static_cast<const char*>(data);
+    while (n > 0) {
+      const std::size_t take = std::min(n, kBuffer - buf_.size());
+      buf_.insert(buf_.end(), p, p + take);
+      p += take;
+      n -= take;
+      if (buf_.size() == kBuffer) flush();
+    }
+  }
+
+ private:
+  static constexpr std::size_t kBuffer = std::size_t{4} << 20;
+
+  void flush() {
+    sum_.update(buf_.data(), buf_.size());
+    writeAll(fd_, buf_.data(), buf_.size(), path_);
+    buf_.clear();
+  }
+
+  int fd_;
+  std::string path_;
+  ByteHasher sum_;
+  std::size_t size_ = 0;
+  std::vector<char> buf_;
+};
+
+void putBody(BodyOut& out, const CheckpointView& c) {
   for (char ch : kMagic) out.put(ch);
   out.put(kVersion);
   out.putString(c.scenario);
@@ -69,23 +154,29 @@ void writeCheckpoint(const std::string& path, const Checkpoint& c) {
   out.put(c.frames);
   out.put(c.dataHash);
   out.put<std::uint32_t>(static_cast<std::uint32_t>(c.swarms.size()));
-  for (const SwarmState& s : c.swarms) {
-    out.putString(s.name);
-    for (const auto* a : {&s.px, &s.py, &s.pz, &s.vx, &s.vy, &s.vz}) out.putVector(*a);
-    out.putVector(s.id);
+  for (const SwarmState* s : c.swarms) {
+    out.putString(s->name);
+    for (const auto* a : {&s->px, &s->py, &s->pz, &s->vx, &s->vy, &s->vz}) out.putVector(*a);
+    out.putVector(s->id);
   }
   out.put<std::uint32_t>(static_cast<std::uint32_t>(c.modelStates.size()));
   for (const auto& m : c.modelStates) out.putString(m);
-  const std::string& body = out.bytes();
-  const std::uint64_t sum = hashBytes(body.data(), body.size(), 0);
+}
+
+}  // namespace
+
+void writeCheckpoint(const std::string& path, const CheckpointView& c) {
+  BodyOut counted(-1, 0, path);
+  putBody(counted, c);
 
   const std::string tmp = path + ".new";
   ::unlink(tmp.c_str());
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC | O_NOFOLLOW, 0644);
   if (fd < 0) throw OutputError(tmp + ": cannot create checkpoint: " + std::strerror(errno));
   try {
-    writeAll(fd, body.data(), body.size(), tmp);
-    writeAll(fd, reinterpret_cast<const char*>(&sum), sizeof sum, tmp);
+    BodyOut out(fd, counted.size(), tmp);
+    putBody(out, c);
+    out.finish();
     if (::fsync(fd) != 0) throw OutputError(tmp + ": cannot sync checkpoint: " + std::strerror(errno));
   } catch (...) {
     ::close(fd);

@@ -8,6 +8,7 @@
 #include <cstring>
 
 #include "core/error.hpp"
+#include "core/parallel.hpp"
 #include "io/checkpoint.hpp"
 #include "io/hdf5_util.hpp"
 #include "io/scene_io.hpp"
@@ -19,6 +20,8 @@ namespace {
 
 // ~1 MiB chunks of whole frames
 constexpr hsize_t kChunkAgents = 87381;
+// the rows of a position or velocity chunk of a swarm of n agents
+hsize_t chunkRows(hsize_t n) { return std::min(std::max<hsize_t>(1, n), kChunkAgents); }
 // blocks: at least 1,024 frames (or the frames so far, doubling), at most ~1 GiB of frames
 constexpr std::int64_t kBlockFrames = 1024;
 constexpr double kBlockBytes = 1024.0 * 1024.0 * 1024.0;
@@ -51,6 +54,35 @@ H5Handle createGroup(hid_t parent, const char* name) {
 }
 
 std::string errnoText() { return std::strerror(errno); }
+
+// rows [r0, r1) of a position or velocity dataset into `out` (3 floats a row):
+// row r is agent id r, wherever the model keeps that agent
+void fillRows(const SwarmState& s, bool velocity, std::size_t r0, std::size_t r1, float* out) {
+  const float* x = velocity ? s.vx.data() : s.px.data();
+  const float* y = velocity ? s.vy.data() : s.py.data();
+  const float* z = velocity ? s.vz.data() : s.pz.data();
+  const std::uint32_t* id = s.id.data();
+  // the ids are a permutation of [0, n): slots [r0, r1) holding ids r0..r1-1
+  // (a state never reordered, or that stretch of one) are the block as it is
+  std::size_t a = r0;
+  while (a < r1 && id[a] == a) ++a;
+  if (a == r1) {
+    for (a = r0; a < r1; ++a) {
+      out[3 * (a - r0)] = x[a];
+      out[3 * (a - r0) + 1] = y[a];
+      out[3 * (a - r0) + 2] = z[a];
+    }
+    return;
+  }
+  const std::size_t rows = r1 - r0;
+  parallelFor(s.size(), [&](std::size_t b) {  // each row written once (the ids are a permutation)
+    const std::size_t r = id[b] - r0;  // wraps around below r0
+    if (r >= rows) return;
+    out[3 * r] = x[b];
+    out[3 * r + 1] = y[b];
+    out[3 * r + 2] = z[b];
+  });
+}
 
 // File access: no raw-data chunk cache (a frame goes to disk when it is
 // written, so compressed chunks get their space in writing order, whenever the
@@ -89,11 +121,11 @@ TrajectoryWriter::TrajectoryWriter(const std::string& file, const Scenario& scen
     swarmHasPos_.push_back(wantPos);
     swarmHasVel_.push_back(wantVel);
     if (wantPos) {
-      slots_.push_back({H5I_INVALID_HID, swarms[i].size(), true});
+      slots_.push_back({H5I_INVALID_HID, swarms[i].size(), true, i, false});
       slotNames_.push_back(base + "/position");
     }
     if (wantVel) {
-      slots_.push_back({H5I_INVALID_HID, swarms[i].size(), true});
+      slots_.push_back({H5I_INVALID_HID, swarms[i].size(), true, i, true});
       slotNames_.push_back(base + "/velocity");
     }
     if (i < statNames.size()) {
@@ -106,8 +138,8 @@ TrajectoryWriter::TrajectoryWriter(const std::string& file, const Scenario& scen
   swarmFirstSlot_.push_back(slots_.size());
   slots_.push_back({H5I_INVALID_HID, 0, false});
   slotNames_.push_back("time");
-  slotData_.resize(slots_.size());
-  for (std::size_t k = 0; k < slots_.size(); ++k) slotData_[k].resize(slots_[k].bytes());
+  values_.resize(slots_.size());
+  setMaxBlockRows(kMaxBlockRows);
 
   try {
     if (mode == Mode::kCreate) create(scenario, swarms, statNames, facts);
@@ -166,7 +198,7 @@ void TrajectoryWriter::create(const Scenario& scenario, const std::vector<SwarmS
     h5::writeAttr(g, "params", scenario.resolved["swarms"][i]["params"].dump());
     if (i < facts.size() && !facts[i].empty()) h5::writeAttr(g, "model_facts", facts[i]);
     const hsize_t dims[3] = {0, n, 3};
-    const hsize_t chunk[3] = {1, std::min(std::max<hsize_t>(1, n), kChunkAgents), 3};
+    const hsize_t chunk[3] = {1, chunkRows(n), 3};
     if (swarmHasPos_[i]) {
       H5Handle d = createDataset(g, "position", H5T_IEEE_F32LE, 3, dims, chunk, scenario.output.compression);
       h5::writeAttr(d, "units", std::string("m"));
@@ -276,12 +308,24 @@ TrajectoryWriter::~TrajectoryWriter() {
   if (!closed_) closeFile();
 }
 
-void TrajectoryWriter::transfer(std::size_t slot, hid_t dataset, std::int64_t frame, void* data, bool write,
-                                const std::string& file) {
+void TrajectoryWriter::setMaxBlockRows(std::size_t rows) {
+  rows = std::max<std::size_t>(1, rows);
+  std::size_t most = 0;
+  for (Slot& s : slots_) {
+    if (!s.vec) continue;
+    const std::size_t chunk = chunkRows(s.rows);
+    s.blockRows = rows >= chunk ? rows / chunk * chunk : rows;
+    most = std::max(most, std::min(s.blockRows, s.rows));
+  }
+  block_ = std::vector<float>(3 * most);
+}
+
+void TrajectoryWriter::transfer(std::size_t slot, hid_t dataset, std::int64_t frame, std::size_t r0, std::size_t r1,
+                                void* data, bool write, const std::string& file) {
   const Slot& s = slots_[slot];
   const hsize_t f = static_cast<hsize_t>(frame);
   const int rank = s.vec ? 3 : 1;
-  const hsize_t start[3] = {f, 0, 0}, count[3] = {1, s.rows, 3};
+  const hsize_t start[3] = {f, r0, 0}, count[3] = {1, r1 - r0, 3};
   const hid_t memType = s.vec ? H5T_NATIVE_FLOAT : H5T_NATIVE_DOUBLE;
   H5Handle fspace(H5Dget_space(dataset), H5Sclose);
   H5Sselect_hyperslab(fspace, H5S_SELECT_SET, start, nullptr, count, nullptr);
@@ -294,12 +338,28 @@ void TrajectoryWriter::transfer(std::size_t slot, hid_t dataset, std::int64_t fr
   }
 }
 
-void TrajectoryWriter::appendBuffers() {
+template <typename Visit>
+std::uint64_t TrajectoryWriter::forEachBlock(std::size_t k, std::uint64_t h, const Visit& visit) {
+  const Slot& s = slots_[k];
+  void* data = s.vec ? static_cast<void*>(block_.data()) : static_cast<void*>(&values_[k]);
+  ByteHasher hasher(h, s.bytes());
+  for (std::size_t r0 = 0; r0 < s.units(); r0 += s.blockRows) {
+    const std::size_t r1 = std::min(s.units(), r0 + s.blockRows);
+    visit(r0, r1, data);
+    hasher.update(data, (r1 - r0) * s.unitBytes());
+  }
+  return hasher.finish();
+}
+
+template <typename Fill>
+void TrajectoryWriter::appendFrame(const Fill& fill) {
   if (frames_ >= capacity_) throw OutputError(file_ + ": more frames than the scenario has");
   if (frames_ >= extent_) grow();
   for (std::size_t k = 0; k < slots_.size(); ++k) {
-    transfer(k, slots_[k].dataset, frames_, slotData_[k].data(), true, file_);
-    hash_ = hashBytes(slotData_[k].data(), slotData_[k].size(), hash_);
+    hash_ = forEachBlock(k, hash_, [&](std::size_t r0, std::size_t r1, void* data) {
+      fill(k, r0, r1, data);
+      transfer(k, slots_[k].dataset, frames_, r0, r1, data, true, file_);
+    });
   }
   ++frames_;
 }
@@ -307,29 +367,17 @@ void TrajectoryWriter::appendBuffers() {
 void TrajectoryWriter::writeFrame(double time, const std::vector<SwarmState>& swarms,
                                   const std::vector<std::vector<double>>& stats) {
   for (std::size_t i = 0; i < swarms.size(); ++i) {
-    const SwarmState& s = swarms[i];
     std::size_t k = swarmFirstSlot_[i];
-    for (int q = 0; q < 2; ++q) {
-      if (!(q == 0 ? swarmHasPos_[i] : swarmHasVel_[i])) continue;
-      float* out = reinterpret_cast<float*>(slotData_[k++].data());
-      const auto& x = q == 1 ? s.vx : s.px;
-      const auto& y = q == 1 ? s.vy : s.py;
-      const auto& z = q == 1 ? s.vz : s.pz;
-      // rows are ordered by agent id, whatever order the model keeps agents in
-      for (std::size_t a = 0; a < s.size(); ++a) {
-        const std::size_t r = s.id[a];
-        out[3 * r] = x[a];
-        out[3 * r + 1] = y[a];
-        out[3 * r + 2] = z[a];
-      }
-    }
+    while (k < swarmFirstSlot_[i + 1] && slots_[k].vec) ++k;  // its stats follow its position and velocity
     for (std::size_t j = 0; k < swarmFirstSlot_[i + 1]; ++j, ++k) {
-      const double v = i < stats.size() && j < stats[i].size() ? stats[i][j] : 0.0;
-      std::memcpy(slotData_[k].data(), &v, sizeof v);
+      values_[k] = i < stats.size() && j < stats[i].size() ? stats[i][j] : 0.0;
     }
   }
-  std::memcpy(slotData_.back().data(), &time, sizeof time);
-  appendBuffers();
+  values_.back() = time;
+  appendFrame([&](std::size_t k, std::size_t r0, std::size_t r1, void* data) {
+    const Slot& s = slots_[k];
+    if (s.vec) fillRows(swarms[s.swarm], s.velocity, r0, r1, static_cast<float*>(data));
+  });
 }
 
 void TrajectoryWriter::copyFramesFrom(const std::string& source, std::int64_t frames) {
@@ -348,8 +396,9 @@ void TrajectoryWriter::copyFramesFrom(const std::string& source, std::int64_t fr
     }
   }
   for (std::int64_t f = 0; f < frames; ++f) {
-    for (std::size_t k = 0; k < slots_.size(); ++k) transfer(k, ds[k], f, slotData_[k].data(), false, source);
-    appendBuffers();
+    appendFrame([&](std::size_t k, std::size_t r0, std::size_t r1, void* data) {
+      transfer(k, ds[k], f, r0, r1, data, false, source);
+    });
   }
 }
 
@@ -357,8 +406,9 @@ std::uint64_t TrajectoryWriter::hashStoredFrames(std::int64_t frames) {
   std::uint64_t h = 0;
   for (std::int64_t f = 0; f < frames; ++f) {
     for (std::size_t k = 0; k < slots_.size(); ++k) {
-      transfer(k, slots_[k].dataset, f, slotData_[k].data(), false, file_);
-      h = hashBytes(slotData_[k].data(), slotData_[k].size(), h);
+      h = forEachBlock(k, h, [&](std::size_t r0, std::size_t r1, void* data) {
+        transfer(k, slots_[k].dataset, f, r0, r1, data, false, file_);
+      });
     }
   }
   return h;

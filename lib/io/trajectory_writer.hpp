@@ -10,7 +10,9 @@
 // the same process would have (the same allocations from the same on-disk
 // state), and a resumed run ends in a file byte-identical to one that never
 // stopped. The block boundaries depend only on the frame count and the frame
-// size. Memory stays bounded by one frame.
+// size. A frame's position and velocity rows go to the file (and are read back)
+// in pieces of at most kMaxBlockRows rows, so the writer's memory is bounded
+// whatever the number of agents.
 //
 // The writer writes the file it is given (OutputTarget decides names and
 // places the finished file); it never removes anything.
@@ -44,6 +46,14 @@ class TrajectoryWriter {
   TrajectoryWriter& operator=(const TrajectoryWriter&) = delete;
   ~TrajectoryWriter();  // closes the file if close() was not called (no exception)
 
+  // the most rows of a position or velocity dataset transferred at once (12 MiB)
+  static constexpr std::size_t kMaxBlockRows = std::size_t{1} << 20;
+  // Transfer at most `rows` rows at once (the file's bytes and the data hash do
+  // not depend on it). Rounded down to whole chunks when a chunk is smaller,
+  // so that each compressed chunk is written once, complete; fewer rows than a
+  // chunk only for tests. The constructor sets kMaxBlockRows.
+  void setMaxBlockRows(std::size_t rows);
+
   // whether a killed run's partial file can be reopened in place (kReopen): not
   // with compression, where writing a frame allocates space in the file
   static bool canReopen(const Scenario& scenario) { return scenario.output.compression == 0; }
@@ -75,7 +85,12 @@ class TrajectoryWriter {
     hid_t dataset = H5I_INVALID_HID;
     std::size_t rows = 0;
     bool vec = false;
-    std::size_t bytes() const { return vec ? rows * 3 * sizeof(float) : sizeof(double); }
+    std::size_t swarm = 0;                                // a vec slot: its swarm
+    bool velocity = false;                                // a vec slot: velocity (else position)
+    std::size_t blockRows = 1;                            // rows per transfer (setMaxBlockRows)
+    std::size_t units() const { return vec ? rows : 1; }  // rows, or the one value
+    std::size_t unitBytes() const { return vec ? 3 * sizeof(float) : sizeof(double); }
+    std::size_t bytes() const { return units() * unitBytes(); }
   };
   void create(const Scenario& scenario, const std::vector<SwarmState>& swarms,
               const std::vector<std::vector<std::string>>& statNames, const std::vector<std::string>& facts);
@@ -83,8 +98,16 @@ class TrajectoryWriter {
   void closeFile();               // closes every handle (no exception)
   void grow();                    // the next block of frames, then close and open again
   std::int64_t nextBoundary(std::int64_t b) const;
-  void transfer(std::size_t slot, hid_t dataset, std::int64_t frame, void* data, bool write, const std::string& file);
-  void appendBuffers();  // slotData_ -> frame frames_, hash, ++frames_
+  // rows [r0, r1) of a slot's frame (a 1-D dataset: its value, r0 = 0, r1 = 1)
+  void transfer(std::size_t slot, hid_t dataset, std::int64_t frame, std::size_t r0, std::size_t r1, void* data,
+                bool write, const std::string& file);
+  // slot k's frame block by block: visit(r0, r1, data) for each block of rows [r0, r1), `data` the buffer the
+  // block goes through; returns `h` chained over the bytes the buffer then holds (the slot's frame)
+  template <typename Visit>
+  std::uint64_t forEachBlock(std::size_t k, std::uint64_t h, const Visit& visit);
+  // frame frames_ of every slot, fill(k, r0, r1, data) giving each block of slot k; hash, ++frames_
+  template <typename Fill>
+  void appendFrame(const Fill& fill);
 
   std::string file_;
   std::string scenarioJson_;
@@ -94,7 +117,8 @@ class TrajectoryWriter {
   std::vector<H5Handle> datasets_;               // one per slot
   std::vector<Slot> slots_;                      // in hashing order: per swarm position, velocity, stats; then time
   std::vector<std::string> slotNames_;           // dataset paths
-  std::vector<std::vector<unsigned char>> slotData_;  // one frame of each slot
+  std::vector<float> block_;                     // one block of rows of a position or velocity slot
+  std::vector<double> values_;                   // per slot: a 1-D dataset's value in this frame
   std::vector<std::size_t> swarmFirstSlot_;      // per swarm: its first slot
   std::vector<int> swarmHasPos_, swarmHasVel_;
   std::int64_t frames_ = 0;
