@@ -1,6 +1,7 @@
 #include "models/boids/boids_kernel.hpp"
 
 #include <algorithm>
+#include <cstring>
 
 #include "core/lanes.hpp"
 
@@ -9,6 +10,29 @@ namespace swarmsim {
 namespace {
 
 constexpr float kTiny = 1e-30f;  // floor of squared lengths: the masked-off lanes stay finite
+
+// lane masks (all bits set in the lanes [lo, hi), none elsewhere) for 0 <= lo <= hi <= 8: rangeMask(lo, hi) is
+// the offset of one in rangeMasks()
+constexpr std::uint32_t rangeMask(std::uint32_t lo, std::uint32_t hi) {
+  return static_cast<std::uint32_t>(kLanes) * (lo * (static_cast<std::uint32_t>(kLanes) + 1) + hi);
+}
+const float* rangeMasks() {
+  struct Table {
+    alignas(32) float m[(kLanes + 1) * (kLanes + 1) * kLanes];
+    Table() {
+      for (std::uint32_t lo = 0; lo <= kLanes; ++lo) {
+        for (std::uint32_t hi = 0; hi <= kLanes; ++hi) {
+          for (std::uint32_t l = 0; l < kLanes; ++l) {
+            const std::uint32_t bits = l >= lo && l < hi ? 0xffffffffu : 0u;
+            std::memcpy(m + rangeMask(lo, hi) + l, &bits, sizeof bits);
+          }
+        }
+      }
+    }
+  };
+  static const Table table;
+  return table.m;
+}
 
 #if SWARMSIM_X86_LANES
 // base[idx[0..7]] to out[0..7] by one AVX2 gather
@@ -67,7 +91,7 @@ inline void addHits(const BoidsLanesInput& in, std::uint32_t* idx, std::size_t m
   }
 }
 
-// out[a][0..8] for each agent a0 + a of the cell whose rows are h.chunkStart/chunkLo/chunkHi[0, nChunks) (chunks of up
+// out[a][0..8] for each agent a0 + a of the cell whose rows are h.chunkStart/chunkLive[0, nChunks) (chunks of up
 // to eight sorted positions): the lane-tree sums of rep (before negation), ali and att, axis by axis. Each agent tests the
 // chunks eight candidates at a time for those within R3 (squared distances only); the hits' sorted positions
 // are packed in scan order and summed eight at a time (hit e in lane e % 8), so square roots and divisions go
@@ -77,13 +101,13 @@ template <typename L, bool kAvx2>
 inline void boidsLanes(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_t a1, std::size_t nChunks,
                        const BoidsZones& z, BoidsScratch& h, std::array<float, 9>* out) {
   using V = typename L::V;
-  const V r3sq = L::set1(z.r3sq), zero = L::set1(0.0f), lane = L::load(kLaneIndex);
+  const V r3sq = L::set1(z.r3sq), zero = L::set1(0.0f);
   const float* px = in.x;
   const float* py = in.y;
   const float* pz = in.z;
   const std::uint32_t* chunkStart = h.chunkStart.data();
-  const float* chunkLo = h.chunkLo.data();
-  const float* chunkHi = h.chunkHi.data();
+  const std::uint32_t* chunkLive = h.chunkLive.data();
+  const float* masks = rangeMasks();
   std::uint32_t* hit = h.hits.data();
   const std::size_t room = h.hits.size() - 2 * kLanes;
   for (std::uint32_t k = a0; k < a1; ++k) {
@@ -96,7 +120,7 @@ inline void boidsLanes(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_
     // hits: a chunk without any packs nothing
     for (std::size_t c = 0; c < nChunks; ++c) {
       const std::uint32_t j = chunkStart[c];
-      const V live = L::band(L::le(L::set1(chunkLo[c]), lane), L::lt(lane, L::set1(chunkHi[c])));  // in the run
+      const V live = L::load(masks + chunkLive[c]);  // the lanes in the run
       const V dx = L::sub(L::load(px + j), q[0]), dy = L::sub(L::load(py + j), q[1]);
       const V dz = L::sub(L::load(pz + j), q[2]);
       const V d2 = L::add(L::add(L::mul(dx, dx), L::mul(dy, dy)), L::mul(dz, dz));
@@ -154,8 +178,7 @@ void BoidsLanesInput::prepare(const float* px, const float* py, const float* pz,
 BoidsScratch::BoidsScratch() {
   hits.resize(kRoom);
   chunkStart.resize(64);
-  chunkLo.resize(64);
-  chunkHi.resize(64);
+  chunkLive.resize(64);
 }
 
 void boidsCellSums(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_t a1, const std::uint32_t* runs,
@@ -168,12 +191,10 @@ void boidsCellSums(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_t a1
   for (std::size_t r = 0; r < nRuns; ++r) most += (runs[2 * r + 1] - runs[2 * r] + kLanes - 1) / kLanes;
   if (scratch.chunkStart.size() < most) {
     scratch.chunkStart.resize(2 * most);
-    scratch.chunkLo.resize(2 * most);
-    scratch.chunkHi.resize(2 * most);
+    scratch.chunkLive.resize(2 * most);
   }
   std::uint32_t* start = scratch.chunkStart.data();
-  float* lo = scratch.chunkLo.data();
-  float* hi = scratch.chunkHi.data();
+  std::uint32_t* live = scratch.chunkLive.data();
   // a chunk loads eight positions from its start: one that would read past the last agent starts earlier (by
   // `back` lanes), its run's lanes then [back, back + size); fewer than eight agents are padded (prepare)
   const std::size_t last = std::max<std::size_t>(in.n, kLanes) - kLanes;
@@ -182,9 +203,9 @@ void boidsCellSums(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_t a1
     const std::uint32_t b = runs[2 * r], e = runs[2 * r + 1];
     for (std::uint32_t j = b; j < e; j += kLanes, ++nChunks) {
       const std::uint32_t back = j > last ? static_cast<std::uint32_t>(j - last) : 0u;
+      const std::uint32_t end = back + std::min<std::uint32_t>(e - j, kLanes);
       start[nChunks] = j - back;
-      lo[nChunks] = static_cast<float>(back);
-      hi[nChunks] = static_cast<float>(back + std::min<std::uint32_t>(e - j, kLanes));
+      live[nChunks] = rangeMask(back, end);
     }
   }
 #if SWARMSIM_X86_LANES

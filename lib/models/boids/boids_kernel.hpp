@@ -46,7 +46,7 @@ struct BoidsScratch {
   std::vector<std::uint32_t> hits;         // sorted positions of one agent's hits, packed
   std::vector<std::uint32_t> runs;         // a row's cells' runs (UniformGrid::forEachCellOfRow)
   std::vector<std::uint32_t> chunkStart;   // a cell's rows in chunks of up to eight: first sorted position loaded
-  std::vector<float> chunkLo, chunkHi;     // and its lanes in the run, [lo, hi) (as floats, for the lane mask)
+  std::vector<std::uint32_t> chunkLive;    // and the lanes in the run: a lane mask's offset (boids_kernel.cpp)
   std::vector<std::array<float, 9>> sums;  // the model's: boidsCellSums' output for one cell
   BoidsScratch();
 };
