@@ -156,6 +156,10 @@ class Boids final : public Model {
       for (int c = 0; c < 3; ++c) {
         three[c]->swap(*buf[c]);
         three[c]->resize(n);
+        if (buf[c]->capacity() < n + BoidsLanesInput::kPad) {
+          // (the first step: the state's own array had no room for the padding) freed before the exact new one
+          std::vector<float>().swap(*buf[c]);
+        }
         buf[c]->resize(n + BoidsLanesInput::kPad);
       }
     }
