@@ -152,7 +152,10 @@ TEST_CASE("shape: F_int acts over each insect's K nearest neighbours within r_at
            {"spawn", {{"type", "box"}, {"min", {-3, -3, -3}}, {"max", {3, 3, 3}}}},
            {"params",
             {{"alpha", 1.0}, {"neighbours", static_cast<unsigned>(K)}, {"r_rep", 0.3}, {"r_ali", 0.8}, {"r_att", 1.5},
-             {"w_rep", 1.0}, {"w_ali", 2.0}, {"w_att", 3.0}, {"noise", {{"eta", 0.0}}}, {"min_distance", 0.0},
+             {"w_rep", 1.0}, {"w_ali", 2.0}, {"w_att", 3.0}, {"min_distance", 0.0},
+             // no noise and no obstacles: coarse noise and distance grids (their set-up was nearly all of the
+             // test's time, minutes under the sanitizers)
+             {"noise", {{"eta", 0.0}, {"cells", {8, 8, 8}}}}, {"sdf_cells", {16, 16, 16}},
              {"max_speed", 1000.0}, {"targets", {{{"time", 1.0}, {"file", mesh}}}}}}}}}};
     const swarmsim::Scenario sc = swarmsim::parseScenario(j, "knn.json");
     swarmsim::Simulation sim(sc);
