@@ -89,8 +89,13 @@ void UniformGrid::build(const float* x, const float* y, const float* z, std::siz
     }
     range[static_cast<std::size_t>(t)] = {low, high};
   });
-  std::size_t span = 0;
-  for (const auto& r : range) span += r[0] <= r[1] ? r[1] - r[0] + 1 : 0;
+  // each chunk's first cursor: its cells [lo, hi] one range after another; span = all of them
+  std::vector<std::size_t>& base = rangeBase_;
+  base.assign(range.size() + 1, 0);
+  for (std::size_t t = 0; t < range.size(); ++t) {
+    base[t + 1] = base[t] + (range[t][0] <= range[t][1] ? range[t][1] - range[t][0] + 1 : 0);
+  }
+  const std::size_t span = base.back();
   start_.assign(ncell + 1, 0);
   order_.resize(n);
   std::uint32_t* start = start_.data();
@@ -100,11 +105,6 @@ void UniformGrid::build(const float* x, const float* y, const float* z, std::siz
   if (teams > 1 && span <= ncell + ncell / 4 && span <= kMaxCursors) {
     // per chunk: counts, then cursors, over its cells [lo, hi] (cursor_ holds the chunks' ranges one after another)
     cursor_.assign(span, 0);
-    std::vector<std::size_t>& base = rangeBase_;
-    base.assign(static_cast<std::size_t>(teams) + 1, 0);
-    for (std::size_t t = 0; t < range.size(); ++t) {
-      base[t + 1] = base[t] + (range[t][0] <= range[t][1] ? range[t][1] - range[t][0] + 1 : 0);
-    }
     parallelChunks(n, [&](std::size_t first, std::size_t last, int t) {
       std::uint32_t* count = cursor_.data() + base[static_cast<std::size_t>(t)];
       const std::uint32_t low = range[static_cast<std::size_t>(t)][0];
