@@ -434,6 +434,21 @@ TEST_CASE("BSwarm F_int is bit-identical for 1 and 2 threads", "[bswarm-int][det
       CHECK(std::memcmp(one.y.data(), two.y.data(), bytes) == 0);
       CHECK(std::memcmp(one.z.data(), two.z.data(), bytes) == 0);
       CHECK(std::memcmp(two.x.data(), again.x.data(), bytes) == 0);
+      // the far field's work counts (docs/performance.md's flops): the same for any number of threads, summed
+      // over calls, every agent evaluated once a call, each one's scan over whole blocks and short of all pairs
+      const InteractionForces::Work &w1 = f1.work(), &w2 = f2.work();
+      if (theta == 0.0f) {
+        CHECK(w2.agents == 0);
+        CHECK(w2.agentEntries + w2.pseudoEntries == 0);
+        continue;
+      }
+      CHECK(w1.agents == a.size());
+      CHECK(w2.agents == 2 * w1.agents);
+      CHECK(w2.agentEntries == 2 * w1.agentEntries);
+      CHECK(w2.pseudoEntries == 2 * w1.pseudoEntries);
+      CHECK(w2.cuts == 2 * w1.cuts);
+      CHECK(w1.agentEntries > w1.agents);  // each agent at least scans itself
+      CHECK(w1.agentEntries + w1.pseudoEntries < w1.agents * a.size() / 4);
     }
   }
   swarmsim::setThreadCount(before);

@@ -149,7 +149,13 @@ class BswarmModel final : public Model {
                                                            : "gaussian";
     // timings per agent-step, after the first step (which sizes every buffer)
     const double steps = static_cast<double>(std::max<std::size_t>(1, timedAgentSteps_));
+    // the far field's work per agent evaluated (docs/performance.md: its flops)
+    const InteractionForces::Work& far = forces_.work();
+    const double farAgents = static_cast<double>(std::max<std::uint64_t>(1, far.agents));
     return {{"noise", noise},
+            {"far_agent_entries", static_cast<double>(far.agentEntries) / farAgents},
+            {"far_pseudo_entries", static_cast<double>(far.pseudoEntries) / farAgents},
+            {"far_cut_cells", static_cast<double>(far.cuts) / farAgents},
             {"noise_grid", noise_.direct()                                                      ? "direct"
                            : p_.noise == BswarmNoise::kCurl || p_.noise == BswarmNoise::kPerlin ? dimsText(noise_.spec().n)
                                                                                                 : "-"},

@@ -17,6 +17,7 @@ using Block = InteractionForces::Block;
 using Node = InteractionForces::Node;
 using Expansion = InteractionForces::Expansion;
 using CutModel = InteractionForces::CutModel;
+using Work = InteractionForces::Work;
 
 // The scan works on the 8 logical lanes of core/lanes.hpp (AVX, or two SSE registers): the same bits either way.
 constexpr std::size_t kBlock = 2 * kLanes;     // entries per step of the scan: blocks are padded to it
@@ -917,6 +918,10 @@ void InteractionForces::evaluateBatch(const Node& T, const Expansion& e, Scratch
     flush();
     pad(list);
     pad(sc.far);
+    sc.work.agents += S.end - S.begin;
+    sc.work.agentEntries += (S.end - S.begin) * list.size;
+    sc.work.pseudoEntries += (S.end - S.begin) * sc.far.size;
+    sc.work.cuts += (S.end - S.begin) * sc.cut.size();
     for (std::uint32_t m = S.begin; m < S.end; ++m) {
       const float q[6] = {mx_[m], my_[m], mz_[m], mvx_[m], mvy_[m], mvz_[m]};
       Sums s;
@@ -947,6 +952,7 @@ void InteractionForces::computeApprox(const UniformGrid& grid, const float* vx, 
   w.fx = fx;
   w.fy = fy;
   w.fz = fz;
+  for (Scratch& sc : scratch_) sc.work = Work();
   // tasks are heavy (hundreds of agents each): worth the team from two on
   parallelForDynamic(tasks_.size(), 1, [&](std::size_t ti) {
     Scratch& sc = scratch_[static_cast<std::size_t>(threadIndex())];
@@ -958,6 +964,12 @@ void InteractionForces::computeApprox(const UniformGrid& grid, const float* vx, 
     clearExpansion(sc.exp[depth_[t]], nodes_[t]);
     walk(t, 0, 1, depth_[t], sc, w);
   });
+  for (const Scratch& sc : scratch_) {
+    work_.agents += sc.work.agents;
+    work_.agentEntries += sc.work.agentEntries;
+    work_.pseudoEntries += sc.work.pseudoEntries;
+    work_.cuts += sc.work.cuts;
+  }
 }
 
 ForceError approximationError(const UniformGrid& grid, const float* vx, const float* vy, const float* vz,

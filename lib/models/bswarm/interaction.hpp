@@ -42,6 +42,14 @@ class InteractionForces {
                float theta, float* fx, float* fy, float* fz);
   // seconds of the last compute (including any aggregation it builds)
   double seconds() const { return seconds_; }
+  // what the far-field computation did, summed over its calls (the exact one counts nothing): agents
+  // evaluated, the entries their scans ran over (agents one by one and pseudo-agents, each padded to whole
+  // SIMD blocks), and the far-field terms they added (the expansion: one per agent; the cells split between
+  // zones). Integers: the same for any number of threads. docs/performance.md turns them into flops.
+  struct Work {
+    std::uint64_t agents = 0, agentEntries = 0, pseudoEntries = 0, cuts = 0;
+  };
+  const Work& work() const { return work_; }
 
   // Implementation types (public for the helpers in the source file).
   // candidates of one query as structure of arrays (w: agents per entry), padded to whole SIMD blocks
@@ -78,6 +86,7 @@ class InteractionForces {
     std::vector<std::uint32_t> cand, open, near, cut, leaves;  // the tree walk (see walk)
     std::vector<Expansion> exp;                                // one per tree level of the walk
     std::vector<CutModel> cutModels;                           // per cut cell: its model for the batch
+    Work work;                                                 // this thread's share of the last compute
   };
 
  private:
@@ -93,6 +102,7 @@ class InteractionForces {
   void evaluateBatch(const Node& t, const Expansion& e, Scratch& sc, const Walk& w) const;
 
   double seconds_ = 0.0;
+  Work work_;
   std::vector<Scratch> scratch_;  // one per thread
   Block all_;                     // every agent in one block (when rAtt covers the whole swarm)
   // the tree: agents in Morton order (positions, velocities, sorted position k), nodes level by level
