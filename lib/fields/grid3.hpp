@@ -10,6 +10,9 @@
 #include <cmath>
 #include <cstddef>
 #include <vector>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "core/vec.hpp"
 
@@ -68,35 +71,114 @@ struct Grid3 {
   // trilinear interpolation between cell centres; outside the centres' box
   // the nearest boundary values are used (clamped; t is compared in floating
   // point before any conversion, so huge or NaN coordinates are safe)
-  T sample(const Vec3& p) const {
-    int i0[3];
-    float f[3];
-    for (int a = 0; a < 3; ++a) {
-      const float t = (p[a] - static_cast<float>(spec.min[a])) / static_cast<float>(spec.cell[a]) - 0.5f;
-      const int last = spec.n[a] - 1;
-      if (!(t > 0.0f)) {
-        i0[a] = 0;
-        f[a] = 0.0f;
-      } else if (t >= static_cast<float>(last)) {
-        i0[a] = std::max(0, last - 1);
-        f[a] = last > 0 ? 1.0f : 0.0f;
-      } else {
-        i0[a] = static_cast<int>(t);
-        f[a] = t - static_cast<float>(i0[a]);
+  // trilinear interpolation at p, clamped to the cell centres at the grid's edges (Sampler: the same for many
+  // points, with the grid's constants converted once)
+  T sample(const Vec3& p) const { return Sampler(*this)(p); }
+
+  // a trilinear sample's base cell b, the offsets of its neighbours along x, y and z (0 on an axis of one
+  // cell), and its weights: f the fraction toward the next cell, g = 1 − f
+  struct Corners {
+    std::size_t b, dx, sy, sz;
+    float f[3], g[3];
+  };
+
+  class Sampler {
+   public:
+    explicit Sampler(const Grid3& grid) : data_(grid.data.data()), size_(grid.data.size()) {
+      const GridSpec& spec = grid.spec;
+      for (int a = 0; a < 3; ++a) {
+        min_[a] = static_cast<float>(spec.min[a]);
+        cell_[a] = static_cast<float>(spec.cell[a]);
+        last_[a] = spec.n[a] - 1;
       }
+      nx_ = static_cast<std::size_t>(spec.n[0]);
+      ny_ = static_cast<std::size_t>(spec.n[1]);
+      dx_ = spec.n[0] > 1 ? 1 : 0;
+      sy_ = spec.n[1] > 1 ? nx_ : 0;
+      sz_ = spec.n[2] > 1 ? nx_ * ny_ : 0;
     }
-    const int dx = spec.n[0] > 1 ? 1 : 0;
-    const std::size_t sy = spec.n[1] > 1 ? static_cast<std::size_t>(spec.n[0]) : 0;
-    const std::size_t sz = spec.n[2] > 1 ? static_cast<std::size_t>(spec.n[0]) * spec.n[1] : 0;
-    const std::size_t b = spec.index(i0[0], i0[1], i0[2]);
-    const T c00 = data[b] * (1.0f - f[0]) + data[b + dx] * f[0];
-    const T c10 = data[b + sy] * (1.0f - f[0]) + data[b + sy + dx] * f[0];
-    const T c01 = data[b + sz] * (1.0f - f[0]) + data[b + sz + dx] * f[0];
-    const T c11 = data[b + sz + sy] * (1.0f - f[0]) + data[b + sz + sy + dx] * f[0];
-    const T c0 = c00 * (1.0f - f[1]) + c10 * f[1];
-    const T c1 = c01 * (1.0f - f[1]) + c11 * f[1];
-    return c0 * (1.0f - f[2]) + c1 * f[2];
-  }
+    T operator()(const Vec3& p) const;
+
+    Corners corners(const Vec3& p) const {
+      Corners c;
+      std::size_t i0[3];
+      for (int a = 0; a < 3; ++a) {
+        const float t = (p[a] - min_[a]) / cell_[a] - 0.5f;
+        const int last = last_[a];
+        if (!(t > 0.0f)) {
+          i0[a] = 0;
+          c.f[a] = 0.0f;
+        } else if (t >= static_cast<float>(last)) {
+          i0[a] = static_cast<std::size_t>(std::max(0, last - 1));
+          c.f[a] = last > 0 ? 1.0f : 0.0f;
+        } else {
+          const int i = static_cast<int>(t);
+          i0[a] = static_cast<std::size_t>(i);
+          c.f[a] = t - static_cast<float>(i);
+        }
+        c.g[a] = 1.0f - c.f[a];
+      }
+      c.dx = dx_;
+      c.sy = sy_;
+      c.sz = sz_;
+      c.b = (i0[2] * ny_ + i0[1]) * nx_ + i0[0];
+      return c;
+    }
+
+   private:
+    const T* data_;
+    std::size_t size_, nx_, ny_, dx_, sy_, sz_;
+    float min_[3], cell_[3];
+    int last_[3];
+  };
+  Sampler sampler() const { return Sampler(*this); }
 };
+
+template <typename T>
+T Grid3<T>::Sampler::operator()(const Vec3& p) const {
+  const Corners c = corners(p);
+  const T* d = data_;
+  const T c00 = d[c.b] * c.g[0] + d[c.b + c.dx] * c.f[0];
+  const T c10 = d[c.b + c.sy] * c.g[0] + d[c.b + c.sy + c.dx] * c.f[0];
+  const T c01 = d[c.b + c.sz] * c.g[0] + d[c.b + c.sz + c.dx] * c.f[0];
+  const T c11 = d[c.b + c.sz + c.sy] * c.g[0] + d[c.b + c.sz + c.sy + c.dx] * c.f[0];
+  const T c0 = c00 * c.g[1] + c10 * c.f[1];
+  const T c1 = c01 * c.g[1] + c11 * c.f[1];
+  return c0 * c.g[2] + c1 * c.f[2];
+}
+
+#if defined(__SSE2__)
+// A grid of vectors: the same operations per component as the generic sample (so the same bits), on one SSE
+// register per corner (x, y, z and a lane that is not used). A corner is read as 16 bytes, 4 past its value,
+// except at the very end of the data.
+template <>
+inline Vec3 Grid3<Vec3>::Sampler::operator()(const Vec3& p) const {
+  static_assert(sizeof(Vec3) == 12, "a Vec3 is three packed floats");
+  const Corners c = corners(p);
+  const Vec3* d = data_;
+  if (c.b + c.sz + c.sy + c.dx + 1 >= size_) {  // the last value: three floats only
+    const Vec3 c00 = d[c.b] * c.g[0] + d[c.b + c.dx] * c.f[0];
+    const Vec3 c10 = d[c.b + c.sy] * c.g[0] + d[c.b + c.sy + c.dx] * c.f[0];
+    const Vec3 c01 = d[c.b + c.sz] * c.g[0] + d[c.b + c.sz + c.dx] * c.f[0];
+    const Vec3 c11 = d[c.b + c.sz + c.sy] * c.g[0] + d[c.b + c.sz + c.sy + c.dx] * c.f[0];
+    const Vec3 c0 = c00 * c.g[1] + c10 * c.f[1];
+    const Vec3 c1 = c01 * c.g[1] + c11 * c.f[1];
+    return c0 * c.g[2] + c1 * c.f[2];
+  }
+  const float* base = d->data();
+  const auto at = [&](std::size_t i) { return _mm_loadu_ps(base + 3 * i); };
+  const auto lerp = [](__m128 a, __m128 b, float g, float f) {
+    return _mm_add_ps(_mm_mul_ps(a, _mm_set1_ps(g)), _mm_mul_ps(b, _mm_set1_ps(f)));
+  };
+  const __m128 c00 = lerp(at(c.b), at(c.b + c.dx), c.g[0], c.f[0]);
+  const __m128 c10 = lerp(at(c.b + c.sy), at(c.b + c.sy + c.dx), c.g[0], c.f[0]);
+  const __m128 c01 = lerp(at(c.b + c.sz), at(c.b + c.sz + c.dx), c.g[0], c.f[0]);
+  const __m128 c11 = lerp(at(c.b + c.sz + c.sy), at(c.b + c.sz + c.sy + c.dx), c.g[0], c.f[0]);
+  const __m128 r = lerp(lerp(c00, c10, c.g[1], c.f[1]), lerp(c01, c11, c.g[1], c.f[1]), c.g[2], c.f[2]);
+  alignas(16) float out[4];
+  _mm_store_ps(out, r);
+  return Vec3(out[0], out[1], out[2]);
+}
+#endif
 
 }  // namespace swarmsim

@@ -9,6 +9,11 @@ ObstacleClearance::ObstacleClearance(Grid3<float> sdf, float radius, bool any)
   const float margin = radius_ + 2.0f * static_cast<float>(sdf_.spec.cell.norm());
   far_.resize(sdf_.data.size());
   parallelFor(far_.size(), [&](std::size_t c) { far_[c] = sdf_.data[c] >= margin ? 1 : 0; });
+  for (int a = 0; a < 3; ++a) {
+    min_[a] = static_cast<float>(sdf_.spec.min[a]);
+    inv_[a] = static_cast<float>(1.0 / sdf_.spec.cell[a]);
+    top_[a] = static_cast<float>(sdf_.spec.n[a] - 1);
+  }
 }
 
 Vec3 ObstacleClearance::normal(const Vec3& x) const {
@@ -22,10 +27,7 @@ Vec3 ObstacleClearance::normal(const Vec3& x) const {
   return normalizedOrZero(g);
 }
 
-Vec3 ObstacleClearance::apply(Vec3 x) const {
-  if (!any_) return x;
-  const auto cell = sdf_.spec.cellOf(x.cast<double>());
-  if (far_[sdf_.spec.index(cell[0], cell[1], cell[2])]) return x;  // far from every obstacle
+Vec3 ObstacleClearance::project(Vec3 x) const {
   for (int it = 0; it < 4; ++it) {
     const float phi = sdf_.sample(x);
     if (phi >= radius_) break;

@@ -7,6 +7,8 @@
 // corners. Cells so far from every obstacle that no point in them can need it
 // are marked once, so far-away points cost one lookup (the distance is
 // 1-Lipschitz, and trilinear corners lie within 1.5 cell diagonals).
+#include <algorithm>
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -22,7 +24,7 @@ class ObstacleClearance {
   // there are obstacles at all (without, apply is the identity)
   ObstacleClearance(Grid3<float> sdf, float radius, bool any);
 
-  Vec3 apply(Vec3 x) const;
+  Vec3 apply(Vec3 x) const { return !any_ || far(x) ? x : project(x); }
   // the signed distance at x and the outward unit normal there (zero where the
   // gradient vanishes), by central differences of half a cell
   float distance(const Vec3& x) const { return sdf_.sample(x); }
@@ -33,6 +35,19 @@ class ObstacleClearance {
  private:
   Grid3<float> sdf_;
   std::vector<std::uint8_t> far_;  // per cell: 1 = no clearance needed anywhere in it
+  // the cell of a point for far_, in float: near a cell's border it may name the neighbour, which changes
+  // nothing (a point there is within the far margin of either, and apply leaves a far point where it is)
+  float min_[3] = {0, 0, 0}, inv_[3] = {1, 1, 1}, top_[3] = {0, 0, 0};
+  bool far(const Vec3& x) const {
+    std::size_t cell[3];
+    for (int a = 0; a < 3; ++a) {
+      const float t = (x[a] - min_[a]) * inv_[a];
+      cell[a] = t > 0.0f ? static_cast<std::size_t>(std::min(t, top_[a])) : 0;  // NaN: 0
+    }
+    return far_[(cell[2] * static_cast<std::size_t>(sdf_.spec.n[1]) + cell[1]) * static_cast<std::size_t>(sdf_.spec.n[0]) +
+                cell[0]] != 0;
+  }
+  Vec3 project(Vec3 x) const;  // apply near an obstacle
   float radius_ = 0.0f;
   bool any_ = false;
 };

@@ -201,18 +201,19 @@ class FieldModel final : public Model {
     const float dt = static_cast<float>(world.dt);
     const Vec3 light = p_.light.cast<float>();
     const float gain = static_cast<float>(p_.gain);
+    const auto combined = combined_.sampler(), global = global_.sampler(), noise = noise_.sampler();
     parallelFor(n, [&](std::size_t i) {
       const Vec3 x = s.position(i);
       Vec3 v;
       if (combinedOk_) {
-        v = combined_.sample(x);  // V = ∇×N + V_g (eq. 9), one lookup
+        v = combined(x);  // V = ∇×N + V_g (eq. 9), one lookup
       } else {
-        v = hasGoals_ ? global_.sample(x) : Vec3::Zero();
+        v = hasGoals_ ? global(x) : Vec3::Zero();
         if (p_.noise == NoiseKind::kWhite) {
           AgentRng rng(world.seed, info.step, s.id[i], RngPurpose::kNoise, info.swarmIndex);
           v += rng.normal3() * gain;
         } else {
-          v += noise_.sample(x);
+          v += noise(x);
         }
       }
       if (p_.phototaxis) {
