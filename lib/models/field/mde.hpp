@@ -157,8 +157,9 @@ inline bool mdeWithinRun(const float* x, const float* y, const float* z, std::ui
     std::int32_t ah = 0;
     std::uint32_t j = k + 1;
 #if defined(__SSE2__)
-    // four pairs at a time (SSE2 is part of every x86-64 CPU)
-    {
+    // four pairs at a time (SSE2 is part of every x86-64 CPU), when there are four (cells often hold fewer:
+    // the sums of no lanes would add zeros)
+    if (j + 4 <= e) {
       const __m128 vqx = _mm_set1_ps(qx), vqy = _mm_set1_ps(qy), vqz = _mm_set1_ps(qz);
       const MdeLanes lanes(md);
       __m128 sx = _mm_setzero_ps(), sy = _mm_setzero_ps(), sz = _mm_setzero_ps();
