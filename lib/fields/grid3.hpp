@@ -97,7 +97,7 @@ struct Grid3 {
       sy_ = spec.n[1] > 1 ? nx_ : 0;
       sz_ = spec.n[2] > 1 ? nx_ * ny_ : 0;
     }
-    T operator()(const Vec3& p) const;
+    T operator()(const Vec3& p) const { return blend(corners(p)); }
 
     Corners corners(const Vec3& p) const {
       Corners c;
@@ -126,6 +126,18 @@ struct Grid3 {
     }
 
    private:
+    // the trilinear blend of the corners, x first, then y, then z
+    T blend(const Corners& c) const {
+      const T* d = data_;
+      const T c00 = d[c.b] * c.g[0] + d[c.b + c.dx] * c.f[0];
+      const T c10 = d[c.b + c.sy] * c.g[0] + d[c.b + c.sy + c.dx] * c.f[0];
+      const T c01 = d[c.b + c.sz] * c.g[0] + d[c.b + c.sz + c.dx] * c.f[0];
+      const T c11 = d[c.b + c.sz + c.sy] * c.g[0] + d[c.b + c.sz + c.sy + c.dx] * c.f[0];
+      const T c0 = c00 * c.g[1] + c10 * c.f[1];
+      const T c1 = c01 * c.g[1] + c11 * c.f[1];
+      return c0 * c.g[2] + c1 * c.f[2];
+    }
+
     const T* data_;
     std::size_t size_, nx_, ny_, dx_, sy_, sz_;
     float min_[3], cell_[3];
@@ -133,19 +145,6 @@ struct Grid3 {
   };
   Sampler sampler() const { return Sampler(*this); }
 };
-
-template <typename T>
-T Grid3<T>::Sampler::operator()(const Vec3& p) const {
-  const Corners c = corners(p);
-  const T* d = data_;
-  const T c00 = d[c.b] * c.g[0] + d[c.b + c.dx] * c.f[0];
-  const T c10 = d[c.b + c.sy] * c.g[0] + d[c.b + c.sy + c.dx] * c.f[0];
-  const T c01 = d[c.b + c.sz] * c.g[0] + d[c.b + c.sz + c.dx] * c.f[0];
-  const T c11 = d[c.b + c.sz + c.sy] * c.g[0] + d[c.b + c.sz + c.sy + c.dx] * c.f[0];
-  const T c0 = c00 * c.g[1] + c10 * c.f[1];
-  const T c1 = c01 * c.g[1] + c11 * c.f[1];
-  return c0 * c.g[2] + c1 * c.f[2];
-}
 
 #if defined(__SSE2__)
 // A grid of vectors: the same operations per component as the generic sample (so the same bits), on one SSE
@@ -156,15 +155,7 @@ inline Vec3 Grid3<Vec3>::Sampler::operator()(const Vec3& p) const {
   static_assert(sizeof(Vec3) == 12, "a Vec3 is three packed floats");
   const Corners c = corners(p);
   const Vec3* d = data_;
-  if (c.b + c.sz + c.sy + c.dx + 1 >= size_) {  // the last value: three floats only
-    const Vec3 c00 = d[c.b] * c.g[0] + d[c.b + c.dx] * c.f[0];
-    const Vec3 c10 = d[c.b + c.sy] * c.g[0] + d[c.b + c.sy + c.dx] * c.f[0];
-    const Vec3 c01 = d[c.b + c.sz] * c.g[0] + d[c.b + c.sz + c.dx] * c.f[0];
-    const Vec3 c11 = d[c.b + c.sz + c.sy] * c.g[0] + d[c.b + c.sz + c.sy + c.dx] * c.f[0];
-    const Vec3 c0 = c00 * c.g[1] + c10 * c.f[1];
-    const Vec3 c1 = c01 * c.g[1] + c11 * c.f[1];
-    return c0 * c.g[2] + c1 * c.f[2];
-  }
+  if (c.b + c.sz + c.sy + c.dx + 1 >= size_) return blend(c);  // the last value: three floats only
   const float* base = d->data();
   const auto at = [&](std::size_t i) { return _mm_loadu_ps(base + 3 * i); };
   const auto lerp = [](__m128 a, __m128 b, float g, float f) {
