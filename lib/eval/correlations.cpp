@@ -25,7 +25,7 @@ void CorrelationSums::add(const CorrelationSums& o) {
 }
 
 CorrelationAccumulator::CorrelationAccumulator(double dt, std::int64_t first, std::int64_t last, int blocks)
-    : dt_(dt), first_(first), last_(last) {
+    : first_(first), last_(last) {
   lags_ = dt > 0 ? static_cast<int>(std::min<double>(kMaxLags, std::ceil(kAutoSeconds / dt - 1e-9))) : 1;
   lags_ = std::max(lags_, 1);
   ring_.resize(static_cast<std::size_t>(lags_) + 1);

@@ -59,7 +59,6 @@ class CorrelationAccumulator {
     std::vector<std::int64_t> id;  // the rows taken, ascending
     std::vector<double> dv;        // 3 per taken row (NaN: no velocity)
   };
-  double dt_;
   std::int64_t first_, last_;
   int lags_;
   std::vector<Past> ring_;

@@ -34,10 +34,10 @@ FrameRange FrameRange::parse(const std::string& text) {
   FrameRange r;
   const auto part = [&](const std::string& s) -> std::optional<long long> {
     if (s.empty()) return std::nullopt;
-    char* end = nullptr;
+    char* stop = nullptr;
     errno = 0;
-    const long long v = std::strtoll(s.c_str(), &end, 10);
-    if (*end != '\0' || errno != 0) throw bad();
+    const long long v = std::strtoll(s.c_str(), &stop, 10);
+    if (*stop != '\0' || errno != 0) throw bad();
     return v;
   };
   r.begin = part(text.substr(0, colon));

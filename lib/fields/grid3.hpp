@@ -85,17 +85,17 @@ struct Grid3 {
   class Sampler {
    public:
     explicit Sampler(const Grid3& grid) : data_(grid.data.data()), size_(grid.data.size()) {
-      const GridSpec& spec = grid.spec;
+      const GridSpec& g = grid.spec;
       for (int a = 0; a < 3; ++a) {
-        min_[a] = static_cast<float>(spec.min[a]);
-        cell_[a] = static_cast<float>(spec.cell[a]);
-        last_[a] = spec.n[a] - 1;
+        min_[a] = static_cast<float>(g.min[a]);
+        cell_[a] = static_cast<float>(g.cell[a]);
+        last_[a] = g.n[a] - 1;
       }
-      nx_ = static_cast<std::size_t>(spec.n[0]);
-      ny_ = static_cast<std::size_t>(spec.n[1]);
-      dx_ = spec.n[0] > 1 ? 1 : 0;
-      sy_ = spec.n[1] > 1 ? nx_ : 0;
-      sz_ = spec.n[2] > 1 ? nx_ * ny_ : 0;
+      nx_ = static_cast<std::size_t>(g.n[0]);
+      ny_ = static_cast<std::size_t>(g.n[1]);
+      dx_ = g.n[0] > 1 ? 1 : 0;
+      sy_ = g.n[1] > 1 ? nx_ : 0;
+      sz_ = g.n[2] > 1 ? nx_ * ny_ : 0;
     }
     T operator()(const Vec3& p) const { return blend(corners(p)); }
 
