@@ -70,17 +70,9 @@ struct Grid3 {
 
   // trilinear interpolation between cell centres; outside the centres' box
   // the nearest boundary values are used (clamped; t is compared in floating
-  // point before any conversion, so huge or NaN coordinates are safe)
-  // trilinear interpolation at p, clamped to the cell centres at the grid's edges (Sampler: the same for many
-  // points, with the grid's constants converted once)
+  // point before any conversion, so huge or NaN coordinates are safe).
+  // Sampler does the same for many points, the grid's constants converted once.
   T sample(const Vec3& p) const { return Sampler(*this)(p); }
-
-  // a trilinear sample's base cell b, the offsets of its neighbours along x, y and z (0 on an axis of one
-  // cell), and its weights: f the fraction toward the next cell, g = 1 − f
-  struct Corners {
-    std::size_t b, dx, sy, sz;
-    float f[3], g[3];
-  };
 
   class Sampler {
    public:
@@ -99,40 +91,49 @@ struct Grid3 {
     }
     T operator()(const Vec3& p) const { return blend(corners(p)); }
 
+    // the base cell along axis a of a sample at coordinate x (it reads cells base and base + 1), and f, the
+    // fraction of the way to the next cell's centre
+    std::size_t base(float x, int a, float& f) const {
+      const float t = (x - min_[a]) / cell_[a] - 0.5f;
+      const int last = last_[a];
+      if (!(t > 0.0f)) {
+        f = 0.0f;
+        return 0;
+      }
+      if (t >= static_cast<float>(last)) {
+        f = last > 0 ? 1.0f : 0.0f;
+        return static_cast<std::size_t>(std::max(0, last - 1));
+      }
+      const int i = static_cast<int>(t);
+      f = t - static_cast<float>(i);
+      return static_cast<std::size_t>(i);
+    }
+
+   private:
+    // a sample's base cell (flat index) and its weights: f toward the next cell along each axis, g = 1 − f
+    struct Corners {
+      std::size_t b;
+      float f[3], g[3];
+    };
     Corners corners(const Vec3& p) const {
       Corners c;
       std::size_t i0[3];
       for (int a = 0; a < 3; ++a) {
-        const float t = (p[a] - min_[a]) / cell_[a] - 0.5f;
-        const int last = last_[a];
-        if (!(t > 0.0f)) {
-          i0[a] = 0;
-          c.f[a] = 0.0f;
-        } else if (t >= static_cast<float>(last)) {
-          i0[a] = static_cast<std::size_t>(std::max(0, last - 1));
-          c.f[a] = last > 0 ? 1.0f : 0.0f;
-        } else {
-          const int i = static_cast<int>(t);
-          i0[a] = static_cast<std::size_t>(i);
-          c.f[a] = t - static_cast<float>(i);
-        }
+        i0[a] = base(p[a], a, c.f[a]);
         c.g[a] = 1.0f - c.f[a];
       }
-      c.dx = dx_;
-      c.sy = sy_;
-      c.sz = sz_;
       c.b = (i0[2] * ny_ + i0[1]) * nx_ + i0[0];
       return c;
     }
-
-   private:
-    // the trilinear blend of the corners, x first, then y, then z
+    // the trilinear blend of the corners, x first, then y, then z (the neighbours along an axis of one cell:
+    // offset 0)
     T blend(const Corners& c) const {
       const T* d = data_;
-      const T c00 = d[c.b] * c.g[0] + d[c.b + c.dx] * c.f[0];
-      const T c10 = d[c.b + c.sy] * c.g[0] + d[c.b + c.sy + c.dx] * c.f[0];
-      const T c01 = d[c.b + c.sz] * c.g[0] + d[c.b + c.sz + c.dx] * c.f[0];
-      const T c11 = d[c.b + c.sz + c.sy] * c.g[0] + d[c.b + c.sz + c.sy + c.dx] * c.f[0];
+      const std::size_t b = c.b, dx = dx_, sy = sy_, sz = sz_;
+      const T c00 = d[b] * c.g[0] + d[b + dx] * c.f[0];
+      const T c10 = d[b + sy] * c.g[0] + d[b + sy + dx] * c.f[0];
+      const T c01 = d[b + sz] * c.g[0] + d[b + sz + dx] * c.f[0];
+      const T c11 = d[b + sz + sy] * c.g[0] + d[b + sz + sy + dx] * c.f[0];
       const T c0 = c00 * c.g[1] + c10 * c.f[1];
       const T c1 = c01 * c.g[1] + c11 * c.f[1];
       return c0 * c.g[2] + c1 * c.f[2];
@@ -154,17 +155,17 @@ template <>
 inline Vec3 Grid3<Vec3>::Sampler::operator()(const Vec3& p) const {
   static_assert(sizeof(Vec3) == 12, "a Vec3 is three packed floats");
   const Corners c = corners(p);
-  const Vec3* d = data_;
-  if (c.b + c.sz + c.sy + c.dx + 1 >= size_) return blend(c);  // the last value: three floats only
-  const float* base = d->data();
-  const auto at = [&](std::size_t i) { return _mm_loadu_ps(base + 3 * i); };
-  const auto lerp = [](__m128 a, __m128 b, float g, float f) {
-    return _mm_add_ps(_mm_mul_ps(a, _mm_set1_ps(g)), _mm_mul_ps(b, _mm_set1_ps(f)));
+  const std::size_t b = c.b, dx = dx_, sy = sy_, sz = sz_;
+  if (b + sz + sy + dx + 1 >= size_) return blend(c);  // the last value: three floats only
+  const float* raw = data_->data();
+  const auto at = [&](std::size_t i) { return _mm_loadu_ps(raw + 3 * i); };
+  const auto lerp = [](__m128 x, __m128 y, float g, float f) {
+    return _mm_add_ps(_mm_mul_ps(x, _mm_set1_ps(g)), _mm_mul_ps(y, _mm_set1_ps(f)));
   };
-  const __m128 c00 = lerp(at(c.b), at(c.b + c.dx), c.g[0], c.f[0]);
-  const __m128 c10 = lerp(at(c.b + c.sy), at(c.b + c.sy + c.dx), c.g[0], c.f[0]);
-  const __m128 c01 = lerp(at(c.b + c.sz), at(c.b + c.sz + c.dx), c.g[0], c.f[0]);
-  const __m128 c11 = lerp(at(c.b + c.sz + c.sy), at(c.b + c.sz + c.sy + c.dx), c.g[0], c.f[0]);
+  const __m128 c00 = lerp(at(b), at(b + dx), c.g[0], c.f[0]);
+  const __m128 c10 = lerp(at(b + sy), at(b + sy + dx), c.g[0], c.f[0]);
+  const __m128 c01 = lerp(at(b + sz), at(b + sz + dx), c.g[0], c.f[0]);
+  const __m128 c11 = lerp(at(b + sz + sy), at(b + sz + sy + dx), c.g[0], c.f[0]);
   const __m128 r = lerp(lerp(c00, c10, c.g[1], c.f[1]), lerp(c01, c11, c.g[1], c.f[1]), c.g[2], c.f[2]);
   alignas(16) float out[4];
   _mm_store_ps(out, r);

@@ -43,15 +43,6 @@ NoiseField::NoiseField(NoiseFieldKind kind, const NoiseParams& params, const Aab
   }
 }
 
-// The base cell of a trilinear sample at p on axis a, as Grid3::sample computes it
-static int sampleBase(const GridSpec& spec, const Vec3& p, int a) {
-  const float t = (p[a] - static_cast<float>(spec.min[a])) / static_cast<float>(spec.cell[a]) - 0.5f;
-  const int last = spec.n[a] - 1;
-  if (!(t > 0.0f)) return 0;
-  if (t >= static_cast<float>(last)) return std::max(0, last - 1);
-  return static_cast<int>(t);
-}
-
 void NoiseField::buildFloor() {
   const GridSpec& spec = boundary_->spec;
   for (int a = 0; a < 3; ++a) floorDims_[a] = (spec.n[a] + kFloorBlock - 1) / kFloorBlock;
@@ -79,15 +70,18 @@ void NoiseField::buildFloor() {
 bool NoiseField::exactCurlAt(const Vec3& x) const {
   // the blend is 1 over the whole difference stencil (the trilinear distance changes by at most sqrt(3) per metre)
   if (!boundary_) return true;
+  const Grid3<float>::Sampler sample(*boundary_);
   if (!floor_.empty()) {
-    const GridSpec& spec = boundary_->spec;
-    const std::size_t f =
-        (static_cast<std::size_t>(sampleBase(spec, x, 2) / kFloorBlock) * floorDims_[1] +
-         static_cast<std::size_t>(sampleBase(spec, x, 1) / kFloorBlock)) * floorDims_[0] +
-        static_cast<std::size_t>(sampleBase(spec, x, 0) / kFloorBlock);
-    if (static_cast<double>(floor_[f]) >= exactFrom_) return true;  // the same answer as the sample's, sooner
+    // the block of the sample's base cell (the one the sample computes)
+    std::size_t block[3];
+    for (int a = 0; a < 3; ++a) {
+      float f;
+      block[a] = sample.base(x[a], a, f) / kFloorBlock;
+    }
+    const std::size_t fi = (block[2] * static_cast<std::size_t>(floorDims_[1]) + block[1]) * floorDims_[0] + block[0];
+    if (static_cast<double>(floor_[fi]) >= exactFrom_) return true;  // the same answer as the sample's, sooner
   }
-  return boundary_->sample(x) >= exactFrom_;
+  return sample(x) >= exactFrom_;
 }
 
 Vec3 NoiseField::evaluate(const Vec3& x) const {

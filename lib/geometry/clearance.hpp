@@ -8,7 +8,6 @@
 // are marked once, so far-away points cost one lookup (the distance is
 // 1-Lipschitz, and trilinear corners lie within 1.5 cell diagonals).
 #include <algorithm>
-#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -39,13 +38,12 @@ class ObstacleClearance {
   // nothing (a point there is within the far margin of either, and apply leaves a far point where it is)
   float min_[3] = {0, 0, 0}, inv_[3] = {1, 1, 1}, top_[3] = {0, 0, 0};
   bool far(const Vec3& x) const {
-    std::size_t cell[3];
+    int cell[3];
     for (int a = 0; a < 3; ++a) {
       const float t = (x[a] - min_[a]) * inv_[a];
-      cell[a] = t > 0.0f ? static_cast<std::size_t>(std::min(t, top_[a])) : 0;  // NaN: 0
+      cell[a] = t > 0.0f ? static_cast<int>(std::min(t, top_[a])) : 0;  // NaN: 0
     }
-    return far_[(cell[2] * static_cast<std::size_t>(sdf_.spec.n[1]) + cell[1]) * static_cast<std::size_t>(sdf_.spec.n[0]) +
-                cell[0]] != 0;
+    return far_[sdf_.spec.index(cell[0], cell[1], cell[2])] != 0;
   }
   Vec3 project(Vec3 x) const;  // apply near an obstacle
   float radius_ = 0.0f;

@@ -918,10 +918,8 @@ void InteractionForces::evaluateBatch(const Node& T, const Expansion& e, Scratch
     flush();
     pad(list);
     pad(sc.far);
-    sc.work.agents += S.end - S.begin;
-    sc.work.agentEntries += (S.end - S.begin) * list.size;
-    sc.work.pseudoEntries += (S.end - S.begin) * sc.far.size;
-    sc.work.cuts += (S.end - S.begin) * sc.cut.size();
+    const std::uint64_t agents = S.end - S.begin;
+    sc.work += Work{agents, agents * list.size, agents * sc.far.size, agents * sc.cut.size()};
     for (std::uint32_t m = S.begin; m < S.end; ++m) {
       const float q[6] = {mx_[m], my_[m], mz_[m], mvx_[m], mvy_[m], mvz_[m]};
       Sums s;
@@ -964,12 +962,7 @@ void InteractionForces::computeApprox(const UniformGrid& grid, const float* vx, 
     clearExpansion(sc.exp[depth_[t]], nodes_[t]);
     walk(t, 0, 1, depth_[t], sc, w);
   });
-  for (const Scratch& sc : scratch_) {
-    work_.agents += sc.work.agents;
-    work_.agentEntries += sc.work.agentEntries;
-    work_.pseudoEntries += sc.work.pseudoEntries;
-    work_.cuts += sc.work.cuts;
-  }
+  for (const Scratch& sc : scratch_) work_ += sc.work;
 }
 
 ForceError approximationError(const UniformGrid& grid, const float* vx, const float* vy, const float* vz,

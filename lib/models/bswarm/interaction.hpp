@@ -48,6 +48,13 @@ class InteractionForces {
   // zones). Integers: the same for any number of threads. docs/performance.md turns them into flops.
   struct Work {
     std::uint64_t agents = 0, agentEntries = 0, pseudoEntries = 0, cuts = 0;
+    Work& operator+=(const Work& o) {
+      agents += o.agents;
+      agentEntries += o.agentEntries;
+      pseudoEntries += o.pseudoEntries;
+      cuts += o.cuts;
+      return *this;
+    }
   };
   const Work& work() const { return work_; }
 
