@@ -94,6 +94,17 @@ TEST_CASE("fastswarm: each energy term against a hand-worked value", "[fastswarm
   CHECK(f.dir == 0.0f);
 }
 
+// the minimiser's lane types this CPU can run (energy.hpp)
+std::vector<SearchLanes> availableLanes() {
+  std::vector<SearchLanes> all = {SearchLanes::kSse};
+#if defined(__GNUC__) && defined(__x86_64__)
+  if (__builtin_cpu_supports("avx")) all.push_back(SearchLanes::kAvx);
+  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) all.push_back(SearchLanes::kAvx2Fma);
+  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("fma")) all.push_back(SearchLanes::kAvx512);
+#endif
+  return all;
+}
+
 TEST_CASE("fastswarm: the argmin is the brute-force minimum of E over the same candidates", "[fastswarm]") {
   std::mt19937 rng(5);
   std::normal_distribution<float> g(0.0f, 1.0f);
@@ -152,30 +163,45 @@ TEST_CASE("fastswarm: the argmin is the brute-force minimum of E over the same c
     // the same candidate, unless two are tied within float rounding
     CHECK((got == want || std::fabs(E[got] - E[want]) <= 1e-5 * E[want]));
     CHECK(best == Approx(E[want]).epsilon(1e-4));
-    // branch and bound: the very same candidate and E as the plain scan
-    BoundFactors f;
-    f.build(c, p);
-    std::vector<float> lower;
-    float bestBounded = 0.0f;
-    CHECK(argminEnergyBounded(in, c, f, 40, 260, p, lower, &bestBounded) == got);
-    CHECK(bestBounded == best);
-    // and the bound is one: never above a candidate's E
-    for (std::size_t k = 40; k < 260; ++k) CHECK(lower[k - 40] <= energyTerms(in, c, k, p).total());
-    // with stimuli too (an attractor, a predator near the agent)
-    EnergyParams ps = p;
-    ps.w.env = 2.0f;
-    ps.dDanger = 0.5f;
-    const float lx[] = {0.6f}, ly[] = {0.8f}, lz[] = {0.0f};
-    const float dx[] = {0.1f * u(rng)}, dy[] = {0.3f}, dz[] = {0.1f * u(rng)}, dr[] = {0.05f};
-    AgentInput is = in;
-    is.lureX = lx, is.lureY = ly, is.lureZ = lz, is.lures = 1;
-    is.dangerX = dx, is.dangerY = dy, is.dangerZ = dz, is.dangerR = dr, is.dangers = 1;
-    BoundFactors fs;
-    fs.build(c, ps);
-    float plain = 0.0f, bounded = 0.0f;
-    CHECK(argminEnergyBounded(is, c, fs, 40, 260, ps, lower, &bounded) == argminEnergy(is, c, 40, 260, ps, &plain));
-    CHECK(bounded == plain);
-    for (std::size_t k = 40; k < 260; ++k) CHECK(lower[k - 40] <= energyTerms(is, c, k, ps).total());
+    // branch and bound: the very same candidate and E as the plain scan, on every lane type this CPU has
+    for (const SearchLanes lanes : availableLanes()) {
+      INFO("lanes " << static_cast<int>(lanes));
+      BoundFactors f;
+      f.build(c, p);
+      std::vector<float> lower;
+      float bestBounded = 0.0f;
+      CHECK(argminEnergyBounded(in, c, f, 40, 260, p, lower, &bestBounded, lanes) == got);
+      CHECK(bestBounded == best);
+      // and the bound is one: never above a candidate's E, and close to the exact lanes' bound
+      std::vector<float> exact;
+      argminEnergyBounded(in, c, f, 40, 260, p, exact, nullptr, SearchLanes::kSse);
+      for (std::size_t k = 40; k < 260; ++k) {
+        CHECK(lower[k - 40] <= energyTerms(in, c, k, p).total());
+        CHECK(lower[k - 40] == Approx(exact[k - 40]).epsilon(1e-3));
+      }
+      // with stimuli and a control direction too (an attractor, a predator near the agent)
+      EnergyParams ps = p;
+      ps.w.env = 2.0f;
+      ps.w.user = 0.7f;
+      ps.dDanger = 0.5f;
+      const float lx[] = {0.6f}, ly[] = {0.8f}, lz[] = {0.0f};
+      const float dx[] = {0.1f * u(rng)}, dy[] = {0.3f}, dz[] = {0.1f * u(rng)}, dr[] = {0.05f};
+      AgentInput is = in;
+      is.control = unit(Vec3(g(rng), g(rng), g(rng)));
+      is.lureX = lx, is.lureY = ly, is.lureZ = lz, is.lures = 1;
+      is.dangerX = dx, is.dangerY = dy, is.dangerZ = dz, is.dangerR = dr, is.dangers = 1;
+      // ρ at its default and at the largest a scenario may set (the bounds' margin grows with it)
+      for (const float r : {2.5f, 20.0f}) {
+        ps.rho = r;
+        BoundFactors fs;
+        fs.build(c, ps);
+        float plain = 0.0f, bounded = 0.0f;
+        CHECK(argminEnergyBounded(is, c, fs, 40, 260, ps, lower, &bounded, lanes) ==
+              argminEnergy(is, c, 40, 260, ps, &plain));
+        CHECK(bounded == plain);
+        for (std::size_t k = 40; k < 260; ++k) CHECK(lower[k - 40] <= energyTerms(is, c, k, ps).total());
+      }
+    }
   }
 }
 

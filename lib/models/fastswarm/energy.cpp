@@ -111,6 +111,257 @@ SWARMSIM_AVX __attribute__((flatten)) void ownTotalsAvx(const AgentInput& in, co
 }
 #endif
 
+// a candidate's exact E on exact lanes (AVX: the same bits as SSE), kept out of the wide lanes' flattened entry
+// points below so that none of it is compiled for their instruction sets
+__attribute__((noinline)) float exactTotal(const AgentInput& in, const Candidates& c, std::size_t k,
+                                           const EnergyParams& p) {
+  return energyTermsWith(true, in, c, k, p).total();
+}
+
+#if SWARMSIM_X86_LANES
+// The lower bounds of argminEnergyBounded on wide lanes with fused multiply-adds and refined reciprocal square
+// roots: 16 candidates at a time (AVX-512) or 8 (AVX2 with FMA). Only the bounds use them, so their bits may
+// differ from the exact terms' (and between the two): each bound is lowered by a margin that covers the
+// difference (boundMargin), and the candidate chosen is the exact argmin whatever the lanes.
+#define SWARMSIM_AVX512F __attribute__((target("avx512f,avx2,fma")))
+#define SWARMSIM_AVX2FMA __attribute__((target("avx2,fma")))
+
+struct Avx512Bound {
+  struct V {  // (wrapped, as in core/lanes.hpp: lambdas pass it by value)
+    __m512 a;
+  };
+  static constexpr std::size_t kWidth = 16;
+  SWARMSIM_AVX512F static __mmask16 live(std::size_t n) {
+    return n >= 16 ? static_cast<__mmask16>(0xffff) : static_cast<__mmask16>((1u << n) - 1u);
+  }
+  // the first n (<= 16) floats at p, zero past them (nothing past them is read)
+  SWARMSIM_AVX512F static V load(const float* p, std::size_t n) { return {_mm512_maskz_loadu_ps(live(n), p)}; }
+  SWARMSIM_AVX512F static void store(float* p, V x, std::size_t n) { _mm512_mask_storeu_ps(p, live(n), x.a); }
+  // lanes n and on set to x
+  SWARMSIM_AVX512F static V fillFrom(V v, std::size_t n, float x) {
+    return {_mm512_mask_blend_ps(live(n), _mm512_set1_ps(x), v.a)};
+  }
+  SWARMSIM_AVX512F static V set1(float x) { return {_mm512_set1_ps(x)}; }
+  SWARMSIM_AVX512F static V add(V x, V y) { return {_mm512_add_ps(x.a, y.a)}; }
+  SWARMSIM_AVX512F static V sub(V x, V y) { return {_mm512_sub_ps(x.a, y.a)}; }
+  SWARMSIM_AVX512F static V mul(V x, V y) { return {_mm512_mul_ps(x.a, y.a)}; }
+  SWARMSIM_AVX512F static V fma(V x, V y, V z) { return {_mm512_fmadd_ps(x.a, y.a, z.a)}; }    // x y + z
+  SWARMSIM_AVX512F static V fnma(V x, V y, V z) { return {_mm512_fnmadd_ps(x.a, y.a, z.a)}; }  // z − x y
+  // (the zero-masked forms: GCC 12 warns about the undefined vector the unmasked ones start from)
+  SWARMSIM_AVX512F static V min(V x, V y) { return {_mm512_maskz_min_ps(0xffff, x.a, y.a)}; }
+  SWARMSIM_AVX512F static V max(V x, V y) { return {_mm512_maskz_max_ps(0xffff, x.a, y.a)}; }
+  SWARMSIM_AVX512F static V abs(V x) {
+    return {_mm512_castsi512_ps(_mm512_and_epi32(_mm512_castps_si512(x.a), _mm512_set1_epi32(0x7fffffff)))};
+  }
+  SWARMSIM_AVX512F static V sqrt(V x) { return {_mm512_maskz_sqrt_ps(0xffff, x.a)}; }
+  SWARMSIM_AVX512F static V rsqrt(V x) { return {_mm512_maskz_rsqrt14_ps(0xffff, x.a)}; }  // relative error <= 2^-14
+  SWARMSIM_AVX512F static V round(V x) {
+    return {_mm512_maskz_roundscale_ps(0xffff, x.a, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC)};
+  }
+  SWARMSIM_AVX512F static V scale2(V x, V n) {  // x 2^n
+    return {_mm512_maskz_scalef_ps(0xffff, x.a, n.a)};
+  }
+  // comparisons as bit masks of the first n lanes
+  SWARMSIM_AVX512F static unsigned eq(V x, V y, std::size_t n) {
+    return _mm512_mask_cmp_ps_mask(live(n), x.a, y.a, _CMP_EQ_OQ);
+  }
+  SWARMSIM_AVX512F static unsigned le(V x, V y, std::size_t n) {
+    return _mm512_mask_cmp_ps_mask(live(n), x.a, y.a, _CMP_LE_OQ);
+  }
+  SWARMSIM_AVX512F static float minOf(V x) {
+    alignas(64) float l[16];
+    _mm512_store_ps(l, x.a);
+    return *std::min_element(l, l + 16);
+  }
+};
+
+struct Avx2Bound {
+  struct V {
+    __m256 a;
+  };
+  static constexpr std::size_t kWidth = 8;
+  SWARMSIM_AVX2FMA static __m256i live(std::size_t n) {
+    return _mm256_cmpgt_epi32(_mm256_set1_epi32(static_cast<int>(std::min<std::size_t>(n, 8))),
+                              _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+  }
+  SWARMSIM_AVX2FMA static V load(const float* p, std::size_t n) {
+    return {n >= 8 ? _mm256_loadu_ps(p) : _mm256_maskload_ps(p, live(n))};
+  }
+  SWARMSIM_AVX2FMA static void store(float* p, V x, std::size_t n) {
+    if (n >= 8) {
+      _mm256_storeu_ps(p, x.a);
+    } else {
+      _mm256_maskstore_ps(p, live(n), x.a);
+    }
+  }
+  SWARMSIM_AVX2FMA static V fillFrom(V v, std::size_t n, float x) {
+    return {_mm256_blendv_ps(_mm256_set1_ps(x), v.a, _mm256_castsi256_ps(live(n)))};
+  }
+  SWARMSIM_AVX2FMA static V set1(float x) { return {_mm256_set1_ps(x)}; }
+  SWARMSIM_AVX2FMA static V add(V x, V y) { return {_mm256_add_ps(x.a, y.a)}; }
+  SWARMSIM_AVX2FMA static V sub(V x, V y) { return {_mm256_sub_ps(x.a, y.a)}; }
+  SWARMSIM_AVX2FMA static V mul(V x, V y) { return {_mm256_mul_ps(x.a, y.a)}; }
+  SWARMSIM_AVX2FMA static V fma(V x, V y, V z) { return {_mm256_fmadd_ps(x.a, y.a, z.a)}; }
+  SWARMSIM_AVX2FMA static V fnma(V x, V y, V z) { return {_mm256_fnmadd_ps(x.a, y.a, z.a)}; }
+  SWARMSIM_AVX2FMA static V min(V x, V y) { return {_mm256_min_ps(x.a, y.a)}; }
+  SWARMSIM_AVX2FMA static V max(V x, V y) { return {_mm256_max_ps(x.a, y.a)}; }
+  SWARMSIM_AVX2FMA static V abs(V x) { return {_mm256_andnot_ps(_mm256_set1_ps(-0.0f), x.a)}; }
+  SWARMSIM_AVX2FMA static V sqrt(V x) { return {_mm256_sqrt_ps(x.a)}; }
+  SWARMSIM_AVX2FMA static V rsqrt(V x) { return {_mm256_rsqrt_ps(x.a)}; }  // relative error <= 1.5 2^-12
+  SWARMSIM_AVX2FMA static V round(V x) { return {_mm256_round_ps(x.a, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC)}; }
+  SWARMSIM_AVX2FMA static V scale2(V x, V n) {  // x 2^n for integral n in [-126, 127]
+    const __m256i e = _mm256_slli_epi32(_mm256_add_epi32(_mm256_cvtps_epi32(n.a), _mm256_set1_epi32(127)), 23);
+    return {_mm256_mul_ps(x.a, _mm256_castsi256_ps(e))};
+  }
+  SWARMSIM_AVX2FMA static unsigned eq(V x, V y, std::size_t n) {
+    return static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(x.a, y.a, _CMP_EQ_OQ))) & liveBits(n);
+  }
+  SWARMSIM_AVX2FMA static unsigned le(V x, V y, std::size_t n) {
+    return static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(x.a, y.a, _CMP_LE_OQ))) & liveBits(n);
+  }
+  static unsigned liveBits(std::size_t n) { return n >= 8 ? 0xffu : (1u << n) - 1u; }
+  SWARMSIM_AVX2FMA static float minOf(V x) {
+    __m128 m = _mm_min_ps(_mm256_castps256_ps128(x.a), _mm256_extractf128_ps(x.a, 1));
+    m = _mm_min_ps(m, _mm_movehl_ps(m, m));
+    m = _mm_min_ss(m, _mm_shuffle_ps(m, m, 1));
+    return _mm_cvtss_f32(m);
+  }
+};
+
+// how far below the exact own terms the wide lanes' bound is put, relative to it: their e^x (degree-6
+// polynomial of 2^f, about 2e-7, plus the rounding of x log2 e, below 4e-6 for x <= 40), the refined square
+// roots (about 3e-7 relative, so ρ 6e-7 in the exponent) and the order of the sums, with room to spare
+inline float boundMargin(const EnergyParams& p) { return 1e-4f + 4e-6f * p.rho; }
+
+// the lower bounds of the candidates [first, first + n) into out[0, n) and their least value: the own terms
+// (eq. 7, 9, 10, 13, 14, the lures of eq. 11) less the margin, plus the interaction's bound (f times the
+// energies of no move: base... as argminEnergyBounded)
+template <typename L>
+__attribute__((always_inline)) inline float boundsWide(const AgentInput& in, const Candidates& c,
+                                                       const BoundFactors& f, std::size_t first, std::size_t n,
+                                                       const EnergyParams& p, float rep0, float oa0, float danger0,
+                                                       float* out) {
+  using V = typename L::V;
+  const V rho = L::set1(p.rho * 1.44269504f);  // e^{ρ d} = 2^{ρ log2(e) d}
+  const V keep = L::set1(1.0f - boundMargin(p));
+  const V invDt = L::set1(1.0f / p.dt), half = L::set1(0.5f), threeHalves = L::set1(1.5f), tiny = L::set1(1e-30f);
+  const V hi = L::set1(126.0f);
+  // |x| for x >= 0 from a reciprocal square root with one Newton step
+  const auto root = [&](V x2) __attribute__((always_inline)) {
+    const V x = L::max(x2, tiny);
+    V y = L::rsqrt(x);
+    y = L::mul(y, L::fnma(L::mul(half, x), L::mul(y, y), threeHalves));
+    return L::mul(x2, y);
+  };
+  // w 2^{t} for t in [0, 126] (ρ log2(e) d), added to acc
+  const auto term = [&](float w, V t, V acc) __attribute__((always_inline)) {
+    t = L::min(t, hi);
+    const V k = L::round(t);
+    const V g = L::sub(t, k);  // in [-0.5, 0.5]
+    V q = L::set1(1.5403530393381608e-4f);  // ln2^6 / 720
+    q = L::fma(q, g, L::set1(1.3333558146428443e-3f));
+    q = L::fma(q, g, L::set1(9.618129107628477e-3f));
+    q = L::fma(q, g, L::set1(5.550410866482158e-2f));
+    q = L::fma(q, g, L::set1(0.2402265069591007f));
+    q = L::fma(q, g, L::set1(0.6931471805599453f));
+    q = L::fma(q, g, L::set1(1.0f));
+    return L::fma(L::set1(w), L::scale2(q, k), acc);
+  };
+  const auto toward = [&](V ux, V uy, V uz, float ax, float ay, float az) __attribute__((always_inline)) {
+    const V dx = L::sub(ux, L::set1(ax)), dy = L::sub(uy, L::set1(ay)), dz = L::sub(uz, L::set1(az));
+    return L::mul(rho, root(L::fma(dx, dx, L::fma(dy, dy, L::mul(dz, dz)))));
+  };
+  V least = L::set1(std::numeric_limits<float>::infinity());
+  for (std::size_t b = 0; b < n; b += L::kWidth) {
+    const std::size_t k = first + b, m = n - b;
+    const V ux = L::load(c.ux.data() + k, m), uy = L::load(c.uy.data() + k, m), uz = L::load(c.uz.data() + k, m);
+    V e = L::set1(0.0f);
+    if (p.w.cos > 0.0f) e = term(p.w.cos, toward(ux, uy, uz, in.center.x(), in.center.y(), in.center.z()), e);
+    if (p.w.dir > 0.0f) e = term(p.w.dir, toward(ux, uy, uz, in.vhat.x(), in.vhat.y(), in.vhat.z()), e);
+    V slack = L::set1(0.0f);
+    if (p.w.acc > 0.0f) {
+      const V ax = L::mul(L::sub(L::load(c.vx.data() + k, m), L::set1(in.v.x())), invDt);
+      const V ay = L::mul(L::sub(L::load(c.vy.data() + k, m), L::set1(in.v.y())), invDt);
+      const V az = L::mul(L::sub(L::load(c.vz.data() + k, m), L::set1(in.v.z())), invDt);
+      const V m2 = L::fma(ax, ax, L::fma(ay, ay, L::mul(az, az)));
+      const V mag = L::sqrt(m2);
+      // a' / |a'| (zero for a' = 0: then a' itself is zero)
+      const V x = L::max(m2, tiny);
+      V inv = L::rsqrt(x);
+      inv = L::mul(inv, L::fnma(L::mul(half, x), L::mul(inv, inv), threeHalves));
+      const V dx = L::fnma(ax, inv, L::load(c.bx.data() + k, m));  // b − â' (its norm is the same)
+      const V dy = L::fnma(ay, inv, L::load(c.by.data() + k, m));
+      const V dz = L::fnma(az, inv, L::load(c.bz.data() + k, m));
+      e = term(p.w.acc, L::mul(rho, root(L::fma(dx, dx, L::fma(dy, dy, L::mul(dz, dz))))), e);
+      e = L::fma(L::set1(p.w.acc), L::abs(L::sub(mag, L::load(c.amag.data() + k, m))), e);
+      // |a'| is within a few units of rounding of the exact terms' (they divide by Δt): w_acc 1e-6 |a'| covers it
+      slack = L::mul(L::set1(p.w.acc * 1e-6f), mag);
+    }
+    if (p.w.n > 0.0f) e = term(p.w.n, toward(ux, uy, uz, in.noise.x(), in.noise.y(), in.noise.z()), e);
+    if (p.w.user > 0.0f) e = term(p.w.user, toward(ux, uy, uz, in.control.x(), in.control.y(), in.control.z()), e);
+    if (p.w.env > 0.0f) {
+      for (std::size_t j = 0; j < in.lures; ++j) e = term(p.w.env, toward(ux, uy, uz, in.lureX[j], in.lureY[j], in.lureZ[j]), e);
+    }
+    V lb = L::sub(L::mul(e, keep), slack);
+    if (rep0 > 0.0f) lb = L::fma(L::load(f.rep.data() + k, m), L::set1(rep0), lb);
+    if (oa0 > 0.0f) lb = L::fma(L::load(f.oa.data() + k, m), L::set1(oa0), lb);
+    if (danger0 > 0.0f) lb = L::fma(L::load(f.danger.data() + k, m), L::set1(danger0), lb);
+    L::store(out + b, lb, m);
+    least = L::min(least, L::fillFrom(lb, m, std::numeric_limits<float>::infinity()));
+  }
+  return L::minOf(least);
+}
+
+// argminEnergyBounded on wide lanes: the bounds, the first candidate of the least bound, its exact E, then the
+// exact E of every candidate whose bound is not above the best E so far
+template <typename L>
+__attribute__((always_inline)) inline std::size_t argminWide(const AgentInput& in, const Candidates& c,
+                                                             const BoundFactors& f, std::size_t first,
+                                                             std::size_t last, const EnergyParams& p, float rep0,
+                                                             float oa0, float danger0, float* lower, float* best) {
+  const std::size_t n = last - first;
+  const float startBound = boundsWide<L>(in, c, f, first, n, p, rep0, oa0, danger0, lower);
+  std::size_t start = 0;
+  for (std::size_t b = 0; b < n; b += L::kWidth) {  // the first of the least
+    const unsigned eq = L::eq(L::load(lower + b, n - b), L::set1(startBound), n - b);
+    if (eq != 0) {
+      start = b + static_cast<std::size_t>(__builtin_ctz(eq));
+      break;
+    }
+  }
+  std::size_t arg = first + start;
+  float least = exactTotal(in, c, arg, p);
+  for (std::size_t b = 0; b < n; b += L::kWidth) {
+    unsigned m = L::le(L::load(lower + b, n - b), L::set1(least), n - b);
+    for (; m != 0; m &= m - 1u) {
+      const std::size_t i = b + static_cast<std::size_t>(__builtin_ctz(m));
+      if (i == start || !(lower[i] <= least)) continue;
+      const std::size_t k = first + i;
+      const float e = exactTotal(in, c, k, p);
+      if (e < least || (e == least && k < arg)) {  // the lowest index wins a tie, as in argminEnergy
+        least = e;
+        arg = k;
+      }
+    }
+  }
+  if (best) *best = least;
+  return arg;
+}
+
+__attribute__((flatten)) SWARMSIM_AVX512F std::size_t argminAvx512(const AgentInput& in, const Candidates& c,
+                                                                   const BoundFactors& f, std::size_t first,
+                                                                   std::size_t last, const EnergyParams& p, float rep0,
+                                                                   float oa0, float danger0, float* lower, float* best) {
+  return argminWide<Avx512Bound>(in, c, f, first, last, p, rep0, oa0, danger0, lower, best);
+}
+__attribute__((flatten)) SWARMSIM_AVX2FMA std::size_t argminAvx2(const AgentInput& in, const Candidates& c,
+                                                                 const BoundFactors& f, std::size_t first,
+                                                                 std::size_t last, const EnergyParams& p, float rep0,
+                                                                 float oa0, float danger0, float* lower, float* best) {
+  return argminWide<Avx2Bound>(in, c, f, first, last, p, rep0, oa0, danger0, lower, best);
+}
+#endif
+
 // Σ_j e^{a + b |q − p_j|} over n points, eight at a time on SIMD lanes with the lanes' e^x, the lanes added in a
 // fixed order at the end: every lane type gives the same bits (the eq. 4, 6 and 12 sums)
 template <typename L>
@@ -200,6 +451,24 @@ EnergyTerms energyTermsWith(bool avx, const AgentInput& in, const Candidates& c,
   return e;
 }
 
+SearchLanes searchLanes() {
+  switch (laneSet()) {
+    case LaneSet::kSse:
+      return SearchLanes::kSse;
+    case LaneSet::kAvx:
+      return SearchLanes::kAvx;
+    case LaneSet::kAvx2:
+      break;
+  }
+#if SWARMSIM_X86_LANES
+  static const bool fma = __builtin_cpu_supports("fma"), avx512 = __builtin_cpu_supports("avx512f");
+  if (!fma) return SearchLanes::kAvx;
+  return avx512 && !std::getenv("SWARMSIM_NO_AVX512") ? SearchLanes::kAvx512 : SearchLanes::kAvx2Fma;
+#else
+  return SearchLanes::kSse;
+#endif
+}
+
 std::size_t argminEnergy(const AgentInput& in, const Candidates& c, std::size_t first, std::size_t last,
                          const EnergyParams& p, float* best) {
   std::size_t arg = first;
@@ -229,9 +498,10 @@ void BoundFactors::build(const Candidates& c, const EnergyParams& p) {
 }
 
 std::size_t argminEnergyBounded(const AgentInput& in, const Candidates& c, const BoundFactors& f, std::size_t first,
-                                std::size_t last, const EnergyParams& p, std::vector<float>& lower, float* best) {
+                                std::size_t last, const EnergyParams& p, std::vector<float>& lower, float* best,
+                                SearchLanes lanes) {
   // the interaction energies at q = p (no move): each neighbour's distance changes by at most |v| Δt
-  const bool avx = useAvx();
+  const bool avx = lanes != SearchLanes::kSse;
   float rep0 = 0.0f, oa0 = 0.0f;
   zoneTerms(avx, in, in.p, p, rep0, oa0);
   float danger0 = 0.0f;
@@ -241,9 +511,15 @@ std::size_t argminEnergyBounded(const AgentInput& in, const Candidates& c, const
       danger0 += p.w.env * std::exp(p.rho * (1.0f - d / p.dDanger));
     }
   }
+  lower.resize(last - first + kLanes);
+#if SWARMSIM_X86_LANES
+  if (lanes == SearchLanes::kAvx512) return argminAvx512(in, c, f, first, last, p, rep0, oa0, danger0, lower.data(), best);
+  if (lanes == SearchLanes::kAvx2Fma) return argminAvx2(in, c, f, first, last, p, rep0, oa0, danger0, lower.data(), best);
+#endif
   // lower bounds: the own terms (on SIMD lanes, less a margin for their e^x and the order of the sums; the
   // rest exactly as energyTerms), the interaction bounded below
-  lower.resize(last - first + kLanes);
+  std::size_t start = first;
+  float startBound = std::numeric_limits<float>::infinity();
   const std::size_t blocks = (last - first) / kLanes;
 #if SWARMSIM_X86_LANES
   (avx ? ownTotalsAvx : ownTotalsSse)(in, c, first, blocks, p, lower.data());
@@ -256,8 +532,6 @@ std::size_t argminEnergyBounded(const AgentInput& in, const Candidates& c, const
     ownTerms(in, c, k, p, e);
     lower[k - first] = ownTotal(e);
   }
-  std::size_t start = first;
-  float startBound = std::numeric_limits<float>::infinity();
   for (std::size_t k = first; k < last; ++k) {
     const float lb = lower[k - first] + f.rep[k] * rep0 + f.oa[k] * oa0 + f.danger[k] * danger0;
     lower[k - first] = lb;

@@ -98,11 +98,17 @@ struct BoundFactors {
   void build(const Candidates& c, const EnergyParams& p);
 };
 
+// the lanes of argminEnergyBounded: its exact terms on SSE or AVX lanes (the same bits either way), its lower
+// bounds too, or those on AVX2 with FMA or on AVX-512 (different bits, the same candidate chosen). The widest
+// this CPU has, narrowed by core/lanes.hpp's SWARMSIM_NO_AVX and SWARMSIM_NO_AVX2 and by SWARMSIM_NO_AVX512
+enum class SearchLanes { kSse, kAvx, kAvx2Fma, kAvx512 };
+SearchLanes searchLanes();
+
 // argminEnergy's result (the same candidate: the lowest index of the least E), found by branch and bound:
 // E's own terms exactly and the interaction bounded below for every candidate, then the exact E only where
 // that bound is not above the best E found. `lower` is scratch.
 std::size_t argminEnergyBounded(const AgentInput& in, const Candidates& c, const BoundFactors& f, std::size_t first,
                                 std::size_t last, const EnergyParams& p, std::vector<float>& lower,
-                                float* best = nullptr);
+                                float* best = nullptr, SearchLanes lanes = searchLanes());
 
 }  // namespace swarmsim::fastswarm

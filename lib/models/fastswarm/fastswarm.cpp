@@ -267,7 +267,8 @@ class Fastswarm final : public Model {
     const fastswarm::Reference& ref = *p_.reference;
     // per agent, dynamically scheduled: an agent's search (microseconds) outweighs its neighbour lookup, and a
     // dense swarm fills only a few grid cells, which would leave threads idle if the work went cell by cell
-    const bool avx = useAvx();
+    const fastswarm::SearchLanes lanes = fastswarm::searchLanes();
+    const bool avx = lanes != fastswarm::SearchLanes::kSse;
     parallelForDynamic(n, 16, [&](std::size_t k) {
       Scratch& sc = scratch_[static_cast<std::size_t>(threadIndex())];
       for (auto* a : {&sc.rx, &sc.ry, &sc.rz, &sc.ax, &sc.ay, &sc.az}) a->clear();
@@ -317,7 +318,7 @@ class Fastswarm final : public Model {
       std::size_t first = 0, last = 0;
       fastswarm::candidateRange(ref, static_cast<double>(in.v.norm()), p_.candidates, first, last);
       float bestE = 0.0f;
-      std::size_t c = fastswarm::argminEnergyBounded(in, cand_, bounds_, first, last, ep, sc.lower, &bestE);
+      std::size_t c = fastswarm::argminEnergyBounded(in, cand_, bounds_, first, last, ep, sc.lower, &bestE, lanes);
       const std::uint32_t id = s.id[order[k]];
       if (p_.successors) {
         // the sample that followed the agent's current one in its real track, when outside the window
