@@ -79,11 +79,19 @@ class FastswarmConfig final : public ModelConfig {
   FastswarmParams p_;
 };
 
-// per-thread scratch: one agent's neighbours
+// per-thread scratch: one agent's neighbours (the zones' arrays hold nRep and nAtt entries; their sizes are
+// capacity, with room for the packing kernels' whole-vector stores)
 struct Scratch {
   std::vector<float> rx, ry, rz, ax, ay, az;
+  std::size_t nRep = 0, nAtt = 0;
   std::vector<float> lx, ly, lz, dx, dy, dz, dr;  // stimuli: lures' directions, dangers' centres and radii
   std::vector<float> lower;  // the candidates' lower bounds
+  // room for `more` further entries in each zone, and a whole vector past them
+  void reserveZones(std::size_t more) {
+    const std::size_t need = std::max(nRep, nAtt) + more + 16;
+    if (rx.size() >= need) return;
+    for (auto* v : {&rx, &ry, &rz, &ax, &ay, &az}) v->resize(std::max(need, 2 * v->size()));
+  }
 };
 
 // a neighbour at squared distance d2 into the agent's zones: repulsion (closer than d_rep) as its predicted
@@ -91,13 +99,17 @@ struct Scratch {
 __attribute__((always_inline)) inline void addToZones(Scratch& sc, float d2, float rep2, float att12, float px, float py,
                                                       float pz, float vx, float vy, float vz, float dt) {
   if (d2 < rep2) {
-    sc.rx.push_back(px + vx * dt);
-    sc.ry.push_back(py + vy * dt);
-    sc.rz.push_back(pz + vz * dt);
+    sc.reserveZones(1);
+    sc.rx[sc.nRep] = px + vx * dt;
+    sc.ry[sc.nRep] = py + vy * dt;
+    sc.rz[sc.nRep] = pz + vz * dt;
+    ++sc.nRep;
   } else if (d2 >= att12) {
-    sc.ax.push_back(px);
-    sc.ay.push_back(py);
-    sc.az.push_back(pz);
+    sc.reserveZones(1);
+    sc.ax[sc.nAtt] = px;
+    sc.ay[sc.nAtt] = py;
+    sc.az[sc.nAtt] = pz;
+    ++sc.nAtt;
   }
 }
 
@@ -163,11 +175,120 @@ SWARMSIM_AVX __attribute__((flatten)) void collectZonesAvx(const UniformGrid& gr
 }
 #endif
 
-void collectZones(bool avx, const UniformGrid& grid, const ZoneInput& z, float r, Scratch& sc) {
 #if SWARMSIM_X86_LANES
-  (avx ? collectZonesAvx : collectZonesSse)(grid, z, r, sc);
+// The same zones, the same order and bits, with the hits of each block packed by vector permutes (AVX2: the
+// lane-pack table) or compresses (AVX-512) instead of one at a time
+template <typename P>
+__attribute__((always_inline)) inline void packRun(const ZoneInput& z, std::uint32_t begin, std::uint32_t end,
+                                                   Scratch& sc) {
+  using V = typename P::V;
+  constexpr std::uint32_t w = P::kWidth;
+  sc.reserveZones(end - begin);
+  const V qx = P::set1(z.qx), qy = P::set1(z.qy), qz = P::set1(z.qz), dt = P::set1(z.dt);
+  std::uint32_t j = begin;
+  for (; j < end && j + w <= z.n; j += w) {
+    const V px = P::load(z.sx + j), py = P::load(z.sy + j), pz = P::load(z.sz + j);
+    const V dx = P::sub(px, qx), dy = P::sub(py, qy), dz = P::sub(pz, qz);
+    const V d2 = P::add(P::add(P::mul(dx, dx), P::mul(dy, dy)), P::mul(dz, dz));
+    unsigned live = P::lanesBelow(end - j) & P::le(d2, z.r2);
+    if (z.self >= j && z.self < j + w) live &= ~(1u << (z.self - j));
+    const unsigned rep = live & P::lt(d2, z.rep2), att = live & ~rep & P::ge(d2, z.att12);
+    if (rep != 0) {  // predicted positions p + v dt
+      const V ex = P::add(px, P::mul(P::load(z.vx + j), dt)), ey = P::add(py, P::mul(P::load(z.vy + j), dt));
+      const V ez = P::add(pz, P::mul(P::load(z.vz + j), dt));
+      P::pack(sc.rx.data() + sc.nRep, ex, rep);
+      P::pack(sc.ry.data() + sc.nRep, ey, rep);
+      P::pack(sc.rz.data() + sc.nRep, ez, rep);
+      sc.nRep += static_cast<std::size_t>(__builtin_popcount(rep));
+    }
+    if (att != 0) {
+      P::pack(sc.ax.data() + sc.nAtt, px, att);
+      P::pack(sc.ay.data() + sc.nAtt, py, att);
+      P::pack(sc.az.data() + sc.nAtt, pz, att);
+      sc.nAtt += static_cast<std::size_t>(__builtin_popcount(att));
+    }
+  }
+  for (; j < end; ++j) {  // the last points of the grid (fewer than a vector left)
+    const float dx = z.sx[j] - z.qx, dy = z.sy[j] - z.qy, dz = z.sz[j] - z.qz;
+    const float d2 = dx * dx + dy * dy + dz * dz;
+    if (d2 <= z.r2 && j != z.self) addToZones(sc, d2, z.rep2, z.att12, z.sx[j], z.sy[j], z.sz[j], z.vx[j], z.vy[j], z.vz[j], z.dt);
+  }
+}
+
+#define SWARMSIM_AVX512F_ZONES __attribute__((target("avx512f,avx2,popcnt")))
+struct Avx2Pack {
+  struct V {
+    __m256 a;
+  };
+  static constexpr std::uint32_t kWidth = 8;
+  SWARMSIM_AVX2 static V load(const float* p) { return {_mm256_loadu_ps(p)}; }
+  SWARMSIM_AVX2 static V set1(float x) { return {_mm256_set1_ps(x)}; }
+  SWARMSIM_AVX2 static V add(V x, V y) { return {_mm256_add_ps(x.a, y.a)}; }
+  SWARMSIM_AVX2 static V sub(V x, V y) { return {_mm256_sub_ps(x.a, y.a)}; }
+  SWARMSIM_AVX2 static V mul(V x, V y) { return {_mm256_mul_ps(x.a, y.a)}; }
+  SWARMSIM_AVX2 static unsigned lanesBelow(std::uint32_t n) { return n >= 8 ? 0xffu : (1u << n) - 1u; }
+  SWARMSIM_AVX2 static unsigned le(V x, float y) {
+    return static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(x.a, _mm256_set1_ps(y), _CMP_LE_OQ)));
+  }
+  SWARMSIM_AVX2 static unsigned lt(V x, float y) {
+    return static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(x.a, _mm256_set1_ps(y), _CMP_LT_OQ)));
+  }
+  SWARMSIM_AVX2 static unsigned ge(V x, float y) {
+    return static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(x.a, _mm256_set1_ps(y), _CMP_GE_OQ)));
+  }
+  // the lanes of `mask`, in order, to out (all eight lanes are written)
+  SWARMSIM_AVX2 static void pack(float* out, V x, unsigned mask) {
+    const __m256i pick = _mm256_load_si256(reinterpret_cast<const __m256i*>(kLanePack.lanes[mask]));
+    _mm256_storeu_ps(out, _mm256_permutevar8x32_ps(x.a, pick));
+  }
+};
+struct Avx512Pack {
+  struct V {
+    __m512 a;
+  };
+  static constexpr std::uint32_t kWidth = 16;
+  SWARMSIM_AVX512F_ZONES static V load(const float* p) { return {_mm512_loadu_ps(p)}; }
+  SWARMSIM_AVX512F_ZONES static V set1(float x) { return {_mm512_set1_ps(x)}; }
+  SWARMSIM_AVX512F_ZONES static V add(V x, V y) { return {_mm512_add_ps(x.a, y.a)}; }
+  SWARMSIM_AVX512F_ZONES static V sub(V x, V y) { return {_mm512_sub_ps(x.a, y.a)}; }
+  SWARMSIM_AVX512F_ZONES static V mul(V x, V y) { return {_mm512_mul_ps(x.a, y.a)}; }
+  SWARMSIM_AVX512F_ZONES static unsigned lanesBelow(std::uint32_t n) { return n >= 16 ? 0xffffu : (1u << n) - 1u; }
+  SWARMSIM_AVX512F_ZONES static unsigned le(V x, float y) { return _mm512_cmp_ps_mask(x.a, _mm512_set1_ps(y), _CMP_LE_OQ); }
+  SWARMSIM_AVX512F_ZONES static unsigned lt(V x, float y) { return _mm512_cmp_ps_mask(x.a, _mm512_set1_ps(y), _CMP_LT_OQ); }
+  SWARMSIM_AVX512F_ZONES static unsigned ge(V x, float y) { return _mm512_cmp_ps_mask(x.a, _mm512_set1_ps(y), _CMP_GE_OQ); }
+  // the lanes of `mask`, in order, to out (all sixteen lanes are written)
+  SWARMSIM_AVX512F_ZONES static void pack(float* out, V x, unsigned mask) {
+    _mm512_storeu_ps(out, _mm512_maskz_compress_ps(static_cast<__mmask16>(mask), x.a));
+  }
+};
+
+SWARMSIM_AVX2 __attribute__((flatten)) void collectZonesAvx2(const UniformGrid& grid, const ZoneInput& z, float r,
+                                                             Scratch& sc) {
+  grid.forEachRun(z.qx, z.qy, z.qz, r,
+                  [&](std::uint32_t b, std::uint32_t e) __attribute__((always_inline)) { packRun<Avx2Pack>(z, b, e, sc); });
+}
+SWARMSIM_AVX512F_ZONES __attribute__((flatten)) void collectZonesAvx512(const UniformGrid& grid, const ZoneInput& z,
+                                                                        float r, Scratch& sc) {
+  grid.forEachRun(z.qx, z.qy, z.qz, r, [&](std::uint32_t b, std::uint32_t e) __attribute__((always_inline)) {
+    packRun<Avx512Pack>(z, b, e, sc);
+  });
+}
+#endif
+
+void collectZones(fastswarm::SearchLanes lanes, const UniformGrid& grid, const ZoneInput& z, float r, Scratch& sc) {
+#if SWARMSIM_X86_LANES
+  switch (lanes) {
+    case fastswarm::SearchLanes::kSse:
+      return collectZonesSse(grid, z, r, sc);
+    case fastswarm::SearchLanes::kAvx:
+      return collectZonesAvx(grid, z, r, sc);
+    case fastswarm::SearchLanes::kAvx2Fma:
+      return collectZonesAvx2(grid, z, r, sc);
+    case fastswarm::SearchLanes::kAvx512:
+      return collectZonesAvx512(grid, z, r, sc);
+  }
 #else
-  (void)avx;
+  (void)lanes;
   collectZonesLanes<ScalarLanes>(grid, z, r, sc);
 #endif
 }
@@ -271,12 +392,12 @@ class Fastswarm final : public Model {
     const bool avx = lanes != fastswarm::SearchLanes::kSse;
     parallelForDynamic(n, 16, [&](std::size_t k) {
       Scratch& sc = scratch_[static_cast<std::size_t>(threadIndex())];
-      for (auto* a : {&sc.rx, &sc.ry, &sc.rz, &sc.ax, &sc.ay, &sc.az}) a->clear();
+      sc.nRep = sc.nAtt = 0;
       // the zones, in the grid's (deterministic) order: repulsion within d_rep (predicted positions),
       // attraction from d_att,1 to d_att,2 (current positions)
       ZoneInput zin{sx, sy, sz, vx_.data(), vy_.data(), vz_.data(), n, static_cast<std::uint32_t>(k), sx[k], sy[k], sz[k],
                     rep2, att12, dAtt2 * dAtt2, dt};
-      collectZones(avx, grid_, zin, dAtt2, sc);
+      collectZones(lanes, grid_, zin, dAtt2, sc);
       seen_.forEachNear(sx[k], sy[k], sz[k], dAtt2, [&](float px, float py, float pz, float ux, float uy, float uz, float d2) {
         addToZones(sc, d2, rep2, att12, px, py, pz, ux, uy, uz, dt);
       });
@@ -310,11 +431,11 @@ class Fastswarm final : public Model {
       in.repX = sc.rx.data();
       in.repY = sc.ry.data();
       in.repZ = sc.rz.data();
-      in.rep = sc.rx.size();
+      in.rep = sc.nRep;
       in.attX = sc.ax.data();
       in.attY = sc.ay.data();
       in.attZ = sc.az.data();
-      in.att = sc.ax.size();
+      in.att = sc.nAtt;
       std::size_t first = 0, last = 0;
       fastswarm::candidateRange(ref, static_cast<double>(in.v.norm()), p_.candidates, first, last);
       float bestE = 0.0f;
