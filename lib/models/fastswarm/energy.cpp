@@ -363,10 +363,12 @@ __attribute__((flatten)) SWARMSIM_AVX2FMA std::size_t argminAvx2(const AgentInpu
 #endif
 
 // Σ_j e^{a + b |q − p_j|} over n points, eight at a time on SIMD lanes with the lanes' e^x, the lanes added in a
-// fixed order at the end: every lane type gives the same bits (the eq. 4, 6 and 12 sums)
+// fixed order at the end: every lane type gives the same bits (the eq. 4, 6 and 12 sums). zoneSumFrom starts at
+// point j with the lanes' sums acc of the points before.
 template <typename L>
-inline float zoneSumLanes(float qx, float qy, float qz, const float* x, const float* y, const float* z,
-                          std::size_t n, float a, float b) {
+__attribute__((always_inline)) inline float zoneSumFrom(float qx, float qy, float qz, const float* x, const float* y,
+                                                        const float* z, std::size_t n, float a, float b,
+                                                        std::size_t j, typename L::V acc) {
   using V = typename L::V;
   alignas(32) static constexpr float kIndex[kLanes] = {0, 1, 2, 3, 4, 5, 6, 7};
   const V vqx = L::set1(qx), vqy = L::set1(qy), vqz = L::set1(qz), va = L::set1(a), vb = L::set1(b);
@@ -375,8 +377,6 @@ inline float zoneSumLanes(float qx, float qy, float qz, const float* x, const fl
     const V d = L::sqrt(L::add(L::add(L::mul(dx, dx), L::mul(dy, dy)), L::mul(dz, dz)));
     return expLanes<L>(L::add(va, L::mul(vb, d)));
   };
-  V acc = L::set1(0.0f);
-  std::size_t j = 0;
   for (; j + kLanes <= n; j += kLanes) acc = L::add(acc, lane(L::load(x + j), L::load(y + j), L::load(z + j)));
   if (j < n) {  // the tail through a padded copy (the caller's arrays end at n), masked off past n
     float tx[kLanes] = {}, ty[kLanes] = {}, tz[kLanes] = {};
@@ -390,6 +390,11 @@ inline float zoneSumLanes(float qx, float qy, float qz, const float* x, const fl
   for (const float v : part) sum += v;
   return sum;
 }
+template <typename L>
+inline float zoneSumLanes(float qx, float qy, float qz, const float* x, const float* y, const float* z,
+                          std::size_t n, float a, float b) {
+  return zoneSumFrom<L>(qx, qy, qz, x, y, z, n, a, b, 0, L::set1(0.0f));
+}
 
 #if SWARMSIM_X86_LANES
 __attribute__((flatten)) float zoneSumSse(float qx, float qy, float qz, const float* x, const float* y, const float* z,
@@ -400,12 +405,59 @@ SWARMSIM_AVX __attribute__((flatten)) float zoneSumAvx(float qx, float qy, float
                                                        const float* z, std::size_t n, float a, float b) {
   return zoneSumLanes<AvxLanes>(qx, qy, qz, x, y, z, n, a, b);
 }
+
+// the operations of expLanes on sixteen lanes, each lane exactly as AvxLanes computes it
+struct Avx512Exact {
+  struct V {
+    __m512 a;
+  };
+  SWARMSIM_AVX512F static V load(const float* p) { return {_mm512_loadu_ps(p)}; }
+  SWARMSIM_AVX512F static V set1(float x) { return {_mm512_set1_ps(x)}; }
+  SWARMSIM_AVX512F static V add(V x, V y) { return {_mm512_add_ps(x.a, y.a)}; }
+  SWARMSIM_AVX512F static V sub(V x, V y) { return {_mm512_sub_ps(x.a, y.a)}; }
+  SWARMSIM_AVX512F static V mul(V x, V y) { return {_mm512_mul_ps(x.a, y.a)}; }
+  SWARMSIM_AVX512F static V min(V x, V y) { return {_mm512_maskz_min_ps(0xffff, x.a, y.a)}; }
+  SWARMSIM_AVX512F static V max(V x, V y) { return {_mm512_maskz_max_ps(0xffff, x.a, y.a)}; }
+  SWARMSIM_AVX512F static V sqrt(V x) { return {_mm512_maskz_sqrt_ps(0xffff, x.a)}; }
+  SWARMSIM_AVX512F static __m512i toInt(V x) { return _mm512_maskz_cvtps_epi32(0xffff, x.a); }  // to nearest
+  SWARMSIM_AVX512F static V round(V x) { return {_mm512_maskz_cvtepi32_ps(0xffff, toInt(x))}; }
+  SWARMSIM_AVX512F static V pow2(V n) {
+    return {_mm512_castsi512_ps(_mm512_maskz_slli_epi32(0xffff, _mm512_add_epi32(toInt(n), _mm512_set1_epi32(127)), 23))};
+  }
+};
+
+// zoneSumAvx's sum (the same bits): e^x of sixteen points at a time, their two halves added to the eight lanes'
+// sums one after the other, as the eight-lane loop adds them
+SWARMSIM_AVX512F __attribute__((flatten)) float zoneSumAvx512(float qx, float qy, float qz, const float* x,
+                                                              const float* y, const float* z, std::size_t n, float a,
+                                                              float b) {
+  using W = Avx512Exact;
+  const W::V vqx = W::set1(qx), vqy = W::set1(qy), vqz = W::set1(qz), va = W::set1(a), vb = W::set1(b);
+  AvxLanes::V acc = AvxLanes::set1(0.0f);
+  std::size_t j = 0;
+  for (; j + 16 <= n; j += 16) {
+    const W::V dx = W::sub(vqx, W::load(x + j)), dy = W::sub(vqy, W::load(y + j)), dz = W::sub(vqz, W::load(z + j));
+    const W::V d = W::sqrt(W::add(W::add(W::mul(dx, dx), W::mul(dy, dy)), W::mul(dz, dz)));
+    const W::V e = expLanes<W>(W::add(va, W::mul(vb, d)));
+    alignas(64) float half[16];
+    _mm512_store_ps(half, e.a);
+    acc = AvxLanes::add(acc, AvxLanes::load(half));
+    acc = AvxLanes::add(acc, AvxLanes::load(half + 8));
+  }
+  return zoneSumFrom<AvxLanes>(qx, qy, qz, x, y, z, n, a, b, j, acc);
+}
+
+// AVX-512 for the sums where the CPU has it (unless SWARMSIM_NO_AVX512 was set when it was first asked)
+inline bool sumsOnAvx512() {
+  static const bool yes = __builtin_cpu_supports("avx512f") && !std::getenv("SWARMSIM_NO_AVX512");
+  return yes;
+}
 #endif
 
 inline float zoneSum(bool avx, const Vec3& q, const float* x, const float* y, const float* z, std::size_t n, float a,
                      float b) {
 #if SWARMSIM_X86_LANES
-  return (avx ? zoneSumAvx : zoneSumSse)(q.x(), q.y(), q.z(), x, y, z, n, a, b);
+  return (avx ? (sumsOnAvx512() ? zoneSumAvx512 : zoneSumAvx) : zoneSumSse)(q.x(), q.y(), q.z(), x, y, z, n, a, b);
 #else
   (void)avx;
   return zoneSumLanes<ScalarLanes>(q.x(), q.y(), q.z(), x, y, z, n, a, b);
