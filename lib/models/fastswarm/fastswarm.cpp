@@ -184,30 +184,39 @@ __attribute__((always_inline)) inline void packRun(const ZoneInput& z, std::uint
   using V = typename P::V;
   constexpr std::uint32_t w = P::kWidth;
   sc.reserveZones(end - begin);
+  // (locals: the stores below could alias the inputs' and the scratch's fields, which would be reloaded)
+  const float *sx = z.sx, *sy = z.sy, *sz = z.sz, *vx = z.vx, *vy = z.vy, *vz = z.vz;
+  float *rx = sc.rx.data(), *ry = sc.ry.data(), *rz = sc.rz.data();
+  float *ax = sc.ax.data(), *ay = sc.ay.data(), *az = sc.az.data();
+  std::size_t nRep = sc.nRep, nAtt = sc.nAtt;
+  const std::uint32_t self = z.self, n = static_cast<std::uint32_t>(z.n);
+  const float r2 = z.r2, rep2 = z.rep2, att12 = z.att12;
   const V qx = P::set1(z.qx), qy = P::set1(z.qy), qz = P::set1(z.qz), dt = P::set1(z.dt);
   std::uint32_t j = begin;
-  for (; j < end && j + w <= z.n; j += w) {
-    const V px = P::load(z.sx + j), py = P::load(z.sy + j), pz = P::load(z.sz + j);
+  for (; j < end && j + w <= n; j += w) {
+    const V px = P::load(sx + j), py = P::load(sy + j), pz = P::load(sz + j);
     const V dx = P::sub(px, qx), dy = P::sub(py, qy), dz = P::sub(pz, qz);
     const V d2 = P::add(P::add(P::mul(dx, dx), P::mul(dy, dy)), P::mul(dz, dz));
-    unsigned live = P::lanesBelow(end - j) & P::le(d2, z.r2);
-    if (z.self >= j && z.self < j + w) live &= ~(1u << (z.self - j));
-    const unsigned rep = live & P::lt(d2, z.rep2), att = live & ~rep & P::ge(d2, z.att12);
+    unsigned live = P::lanesBelow(end - j) & P::le(d2, r2);
+    if (self - j < w) live &= ~(1u << (self - j));
+    const unsigned rep = live & P::lt(d2, rep2), att = live & ~rep & P::ge(d2, att12);
     if (rep != 0) {  // predicted positions p + v dt
-      const V ex = P::add(px, P::mul(P::load(z.vx + j), dt)), ey = P::add(py, P::mul(P::load(z.vy + j), dt));
-      const V ez = P::add(pz, P::mul(P::load(z.vz + j), dt));
-      P::pack(sc.rx.data() + sc.nRep, ex, rep);
-      P::pack(sc.ry.data() + sc.nRep, ey, rep);
-      P::pack(sc.rz.data() + sc.nRep, ez, rep);
-      sc.nRep += static_cast<std::size_t>(__builtin_popcount(rep));
+      const V ex = P::add(px, P::mul(P::load(vx + j), dt)), ey = P::add(py, P::mul(P::load(vy + j), dt));
+      const V ez = P::add(pz, P::mul(P::load(vz + j), dt));
+      P::pack(rx + nRep, ex, rep);
+      P::pack(ry + nRep, ey, rep);
+      P::pack(rz + nRep, ez, rep);
+      nRep += static_cast<std::size_t>(__builtin_popcount(rep));
     }
     if (att != 0) {
-      P::pack(sc.ax.data() + sc.nAtt, px, att);
-      P::pack(sc.ay.data() + sc.nAtt, py, att);
-      P::pack(sc.az.data() + sc.nAtt, pz, att);
-      sc.nAtt += static_cast<std::size_t>(__builtin_popcount(att));
+      P::pack(ax + nAtt, px, att);
+      P::pack(ay + nAtt, py, att);
+      P::pack(az + nAtt, pz, att);
+      nAtt += static_cast<std::size_t>(__builtin_popcount(att));
     }
   }
+  sc.nRep = nRep;
+  sc.nAtt = nAtt;
   for (; j < end; ++j) {  // the last points of the grid (fewer than a vector left)
     const float dx = z.sx[j] - z.qx, dy = z.sy[j] - z.qy, dz = z.sz[j] - z.qz;
     const float d2 = dx * dx + dy * dy + dz * dz;
