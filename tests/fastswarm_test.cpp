@@ -177,7 +177,7 @@ TEST_CASE("fastswarm: the argmin is the brute-force minimum of E over the same c
       argminEnergyBounded(in, c, f, 40, 260, p, exact, nullptr, SearchLanes::kSse);
       for (std::size_t k = 40; k < 260; ++k) {
         CHECK(lower[k - 40] <= energyTerms(in, c, k, p).total());
-        CHECK(lower[k - 40] == Approx(exact[k - 40]).epsilon(1e-3));
+        CHECK(lower[k - 40] == Approx(exact[k - 40]).epsilon(5e-3));
       }
       // with stimuli and a control direction too (an attractor, a predator near the agent)
       EnergyParams ps = p;

@@ -131,6 +131,7 @@ struct Avx512Bound {
     __m512 a;
   };
   static constexpr std::size_t kWidth = 16;
+  static constexpr float kRsqrtBelow = 1.0f - 1.25e-4f;  // rsqrt14: relative error <= 2^-14
   SWARMSIM_AVX512F static __mmask16 live(std::size_t n) {
     return n >= 16 ? static_cast<__mmask16>(0xffff) : static_cast<__mmask16>((1u << n) - 1u);
   }
@@ -180,6 +181,7 @@ struct Avx2Bound {
     __m256 a;
   };
   static constexpr std::size_t kWidth = 8;
+  static constexpr float kRsqrtBelow = 1.0f - 5e-4f;  // rsqrt: relative error <= 1.5 2^-12
   SWARMSIM_AVX2FMA static __m256i live(std::size_t n) {
     return _mm256_cmpgt_epi32(_mm256_set1_epi32(static_cast<int>(std::min<std::size_t>(n, 8))),
                               _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
@@ -229,8 +231,8 @@ struct Avx2Bound {
 };
 
 // how far below the exact own terms the wide lanes' bound is put, relative to it: their e^x (degree-6
-// polynomial of 2^f, about 2e-7, plus the rounding of x log2 e, below 4e-6 for x <= 40), the refined square
-// roots (about 3e-7 relative, so ρ 6e-7 in the exponent) and the order of the sums, with room to spare
+// polynomial of 2^f, about 2e-7, plus the rounding of x log2 e, below 4e-6 for x <= 40) and the order of the
+// sums, with room to spare (the distances in the exponents are bounded below by themselves)
 inline float boundMargin(const EnergyParams& p) { return 1e-4f + 4e-6f * p.rho; }
 
 // the lower bounds of the candidates [first, first + n) into out[0, n) and their least value: the own terms
@@ -246,12 +248,11 @@ __attribute__((always_inline)) inline float boundsWide(const AgentInput& in, con
   const V keep = L::set1(1.0f - boundMargin(p));
   const V invDt = L::set1(1.0f / p.dt), half = L::set1(0.5f), threeHalves = L::set1(1.5f), tiny = L::set1(1e-30f);
   const V hi = L::set1(126.0f);
-  // |x| for x >= 0 from a reciprocal square root with one Newton step
+  // at most sqrt(x) for x >= 0 (x <= 0: about 0), from the reciprocal square root lowered by its error bound
+  const V below = L::set1(L::kRsqrtBelow);
   const auto root = [&](V x2) __attribute__((always_inline)) {
     const V x = L::max(x2, tiny);
-    V y = L::rsqrt(x);
-    y = L::mul(y, L::fnma(L::mul(half, x), L::mul(y, y), threeHalves));
-    return L::mul(x2, y);
+    return L::mul(x, L::mul(L::rsqrt(x), below));
   };
   // w 2^{t} for t in [0, 126] (ρ log2(e) d), added to acc
   const auto term = [&](float w, V t, V acc) __attribute__((always_inline)) {
@@ -267,17 +268,21 @@ __attribute__((always_inline)) inline float boundsWide(const AgentInput& in, con
     q = L::fma(q, g, L::set1(1.0f));
     return L::fma(L::set1(w), L::scale2(q, k), acc);
   };
-  const auto toward = [&](V ux, V uy, V uz, float ax, float ay, float az) __attribute__((always_inline)) {
-    const V dx = L::sub(ux, L::set1(ax)), dy = L::sub(uy, L::set1(ay)), dz = L::sub(uz, L::set1(az));
-    return L::mul(rho, root(L::fma(dx, dx, L::fma(dy, dy, L::mul(dz, dz)))));
+  // ρ log2(e) times at most |u − a| for unit or zero vectors u (uu = |u|²) and a: |u − a|² = uu + |a|² − 2 u·a,
+  // less 2e-6 for its rounding
+  const auto toward = [&](V ux, V uy, V uz, V uu, float ax, float ay, float az) __attribute__((always_inline)) {
+    const V dot = L::fma(ux, L::set1(ax), L::fma(uy, L::set1(ay), L::mul(uz, L::set1(az))));
+    const V d2 = L::fnma(L::set1(2.0f), dot, L::add(uu, L::set1(ax * ax + ay * ay + az * az - 2e-6f)));
+    return L::mul(rho, root(d2));
   };
   V least = L::set1(std::numeric_limits<float>::infinity());
   for (std::size_t b = 0; b < n; b += L::kWidth) {
     const std::size_t k = first + b, m = n - b;
     const V ux = L::load(c.ux.data() + k, m), uy = L::load(c.uy.data() + k, m), uz = L::load(c.uz.data() + k, m);
+    const V uu = L::fma(ux, ux, L::fma(uy, uy, L::mul(uz, uz)));
     V e = L::set1(0.0f);
-    if (p.w.cos > 0.0f) e = term(p.w.cos, toward(ux, uy, uz, in.center.x(), in.center.y(), in.center.z()), e);
-    if (p.w.dir > 0.0f) e = term(p.w.dir, toward(ux, uy, uz, in.vhat.x(), in.vhat.y(), in.vhat.z()), e);
+    if (p.w.cos > 0.0f) e = term(p.w.cos, toward(ux, uy, uz, uu, in.center.x(), in.center.y(), in.center.z()), e);
+    if (p.w.dir > 0.0f) e = term(p.w.dir, toward(ux, uy, uz, uu, in.vhat.x(), in.vhat.y(), in.vhat.z()), e);
     V slack = L::set1(0.0f);
     if (p.w.acc > 0.0f) {
       const V ax = L::mul(L::sub(L::load(c.vx.data() + k, m), L::set1(in.v.x())), invDt);
@@ -292,15 +297,16 @@ __attribute__((always_inline)) inline float boundsWide(const AgentInput& in, con
       const V dx = L::fnma(ax, inv, L::load(c.bx.data() + k, m));  // b − â' (its norm is the same)
       const V dy = L::fnma(ay, inv, L::load(c.by.data() + k, m));
       const V dz = L::fnma(az, inv, L::load(c.bz.data() + k, m));
-      e = term(p.w.acc, L::mul(rho, root(L::fma(dx, dx, L::fma(dy, dy, L::mul(dz, dz))))), e);
+      const V d2 = L::fma(dx, dx, L::fma(dy, dy, L::mul(dz, dz)));
+      e = term(p.w.acc, L::mul(rho, root(L::sub(d2, L::set1(2e-6f)))), e);  // (2e-6: â' is rounded)
       e = L::fma(L::set1(p.w.acc), L::abs(L::sub(mag, L::load(c.amag.data() + k, m))), e);
       // |a'| is within a few units of rounding of the exact terms' (they divide by Δt): w_acc 1e-6 |a'| covers it
       slack = L::mul(L::set1(p.w.acc * 1e-6f), mag);
     }
-    if (p.w.n > 0.0f) e = term(p.w.n, toward(ux, uy, uz, in.noise.x(), in.noise.y(), in.noise.z()), e);
-    if (p.w.user > 0.0f) e = term(p.w.user, toward(ux, uy, uz, in.control.x(), in.control.y(), in.control.z()), e);
+    if (p.w.n > 0.0f) e = term(p.w.n, toward(ux, uy, uz, uu, in.noise.x(), in.noise.y(), in.noise.z()), e);
+    if (p.w.user > 0.0f) e = term(p.w.user, toward(ux, uy, uz, uu, in.control.x(), in.control.y(), in.control.z()), e);
     if (p.w.env > 0.0f) {
-      for (std::size_t j = 0; j < in.lures; ++j) e = term(p.w.env, toward(ux, uy, uz, in.lureX[j], in.lureY[j], in.lureZ[j]), e);
+      for (std::size_t j = 0; j < in.lures; ++j) e = term(p.w.env, toward(ux, uy, uz, uu, in.lureX[j], in.lureY[j], in.lureZ[j]), e);
     }
     V lb = L::sub(L::mul(e, keep), slack);
     if (rep0 > 0.0f) lb = L::fma(L::load(f.rep.data() + k, m), L::set1(rep0), lb);
