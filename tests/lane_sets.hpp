@@ -12,6 +12,7 @@ inline std::vector<swarmsim::LaneSet> laneSetsOfThisCpu() {
 #if SWARMSIM_X86_LANES
   if (__builtin_cpu_supports("avx")) sets.push_back(swarmsim::LaneSet::kAvx);
   if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("popcnt")) sets.push_back(swarmsim::LaneSet::kAvx2);
+  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("avx512f")) sets.push_back(swarmsim::LaneSet::kAvx512);
 #endif
   return sets;
 }

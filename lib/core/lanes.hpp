@@ -225,14 +225,16 @@ inline bool useAvx() {
 #endif
 }
 
-// the widest lanes this CPU has, for kernels with an AVX2 variant (SWARMSIM_NO_AVX=1: SSE; SWARMSIM_NO_AVX2=1:
-// AVX at most). Every variant of a kernel gives the same bits.
-enum class LaneSet { kSse, kAvx, kAvx2 };
+// the widest lanes this CPU has, for kernels with AVX2 or AVX-512 variants (SWARMSIM_NO_AVX=1: SSE;
+// SWARMSIM_NO_AVX2=1: AVX at most; SWARMSIM_NO_AVX512=1: AVX2 at most). Every variant of a kernel gives the same
+// bits; a kernel without an AVX-512 variant takes its AVX2 one for kAvx512.
+enum class LaneSet { kSse, kAvx, kAvx2, kAvx512 };
 inline LaneSet laneSet() {
 #if SWARMSIM_X86_LANES
   if (!useAvx()) return LaneSet::kSse;
-  static const bool avx2 = __builtin_cpu_supports("avx2");
-  return avx2 && !std::getenv("SWARMSIM_NO_AVX2") ? LaneSet::kAvx2 : LaneSet::kAvx;
+  static const bool avx2 = __builtin_cpu_supports("avx2"), avx512 = __builtin_cpu_supports("avx512f");
+  if (!avx2 || std::getenv("SWARMSIM_NO_AVX2")) return LaneSet::kAvx;
+  return avx512 && !std::getenv("SWARMSIM_NO_AVX512") ? LaneSet::kAvx512 : LaneSet::kAvx2;
 #else
   return LaneSet::kSse;
 #endif
@@ -241,6 +243,10 @@ inline LaneSet laneSet() {
 #if SWARMSIM_X86_LANES
 // entry points and helpers that use AVX2 (and POPCNT, which every AVX2 CPU has); laneSet() says when
 #define SWARMSIM_AVX2 __attribute__((target("avx2,popcnt")))
+// entry points and helpers that use AVX-512 (laneSet() == kAvx512). AVX-512F has fused multiply-adds: a file
+// with such entries is compiled with -ffp-contract=off (lib/CMakeLists.txt), so that they give the other
+// lanes' bits
+#define SWARMSIM_AVX512 __attribute__((target("avx512f,avx2,popcnt")))
 
 // for each 8-lane mask, the numbers of its set lanes in order (the rest 0): a table that packs them
 struct LanePackTable {

@@ -211,6 +211,7 @@ void boidsCellSums(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_t a1
 #if SWARMSIM_X86_LANES
   switch (lanes) {
     case LaneSet::kAvx2:
+    case LaneSet::kAvx512:  // (no AVX-512 variant: sixteen lanes measured no faster, docs/performance.md)
       boidsAvx2(in, a0, a1, nChunks, zones, scratch, out);
       break;
     case LaneSet::kAvx:

@@ -55,7 +55,7 @@ struct BoidsScratch {
 // [runs[2 i], runs[2 i + 1]) (i < nRuns: UniformGrid::forEachCellOfRow), sums over the agents j != k within R3
 // (d = p_j − p_k, d̂ = d / |d|, coincident agents skipped), into out[k − a0][0..8]: Σ d̂ over |d| <= R1
 // (repulsion: the caller negates it), Σ û_j over R1 < |d| <= R2, Σ d̂ over R2 < |d| <= R3 with û_k · d̂ >=
-// cos(fov / 2), axis by axis. `lanes`: which instruction set (laneSet(); every one gives the same bits).
+// cos(fov / 2), axis by axis. `lanes`: which instruction set (laneSet(); every one gives the same bits; kAvx512 runs the AVX2 kernel).
 void boidsCellSums(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_t a1, const std::uint32_t* runs,
                    std::size_t nRuns, const BoidsZones& zones, LaneSet lanes, BoidsScratch& scratch,
                    std::array<float, 9>* out);

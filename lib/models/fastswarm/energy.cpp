@@ -516,12 +516,13 @@ SearchLanes searchLanes() {
     case LaneSet::kAvx:
       return SearchLanes::kAvx;
     case LaneSet::kAvx2:
+    case LaneSet::kAvx512:
       break;
   }
 #if SWARMSIM_X86_LANES
-  static const bool fma = __builtin_cpu_supports("fma"), avx512 = __builtin_cpu_supports("avx512f");
+  static const bool fma = __builtin_cpu_supports("fma");
   if (!fma) return SearchLanes::kAvx;
-  return avx512 && !std::getenv("SWARMSIM_NO_AVX512") ? SearchLanes::kAvx512 : SearchLanes::kAvx2Fma;
+  return laneSet() == LaneSet::kAvx512 ? SearchLanes::kAvx512 : SearchLanes::kAvx2Fma;
 #else
   return SearchLanes::kSse;
 #endif

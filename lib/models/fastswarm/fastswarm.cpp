@@ -224,7 +224,6 @@ __attribute__((always_inline)) inline void packRun(const ZoneInput& z, std::uint
   }
 }
 
-#define SWARMSIM_AVX512F_ZONES __attribute__((target("avx512f,avx2,popcnt")))
 struct Avx2Pack {
   struct V {
     __m256 a;
@@ -256,17 +255,17 @@ struct Avx512Pack {
     __m512 a;
   };
   static constexpr std::uint32_t kWidth = 16;
-  SWARMSIM_AVX512F_ZONES static V load(const float* p) { return {_mm512_loadu_ps(p)}; }
-  SWARMSIM_AVX512F_ZONES static V set1(float x) { return {_mm512_set1_ps(x)}; }
-  SWARMSIM_AVX512F_ZONES static V add(V x, V y) { return {_mm512_add_ps(x.a, y.a)}; }
-  SWARMSIM_AVX512F_ZONES static V sub(V x, V y) { return {_mm512_sub_ps(x.a, y.a)}; }
-  SWARMSIM_AVX512F_ZONES static V mul(V x, V y) { return {_mm512_mul_ps(x.a, y.a)}; }
-  SWARMSIM_AVX512F_ZONES static unsigned lanesBelow(std::uint32_t n) { return n >= 16 ? 0xffffu : (1u << n) - 1u; }
-  SWARMSIM_AVX512F_ZONES static unsigned le(V x, float y) { return _mm512_cmp_ps_mask(x.a, _mm512_set1_ps(y), _CMP_LE_OQ); }
-  SWARMSIM_AVX512F_ZONES static unsigned lt(V x, float y) { return _mm512_cmp_ps_mask(x.a, _mm512_set1_ps(y), _CMP_LT_OQ); }
-  SWARMSIM_AVX512F_ZONES static unsigned ge(V x, float y) { return _mm512_cmp_ps_mask(x.a, _mm512_set1_ps(y), _CMP_GE_OQ); }
+  SWARMSIM_AVX512 static V load(const float* p) { return {_mm512_loadu_ps(p)}; }
+  SWARMSIM_AVX512 static V set1(float x) { return {_mm512_set1_ps(x)}; }
+  SWARMSIM_AVX512 static V add(V x, V y) { return {_mm512_add_ps(x.a, y.a)}; }
+  SWARMSIM_AVX512 static V sub(V x, V y) { return {_mm512_sub_ps(x.a, y.a)}; }
+  SWARMSIM_AVX512 static V mul(V x, V y) { return {_mm512_mul_ps(x.a, y.a)}; }
+  SWARMSIM_AVX512 static unsigned lanesBelow(std::uint32_t n) { return n >= 16 ? 0xffffu : (1u << n) - 1u; }
+  SWARMSIM_AVX512 static unsigned le(V x, float y) { return _mm512_cmp_ps_mask(x.a, _mm512_set1_ps(y), _CMP_LE_OQ); }
+  SWARMSIM_AVX512 static unsigned lt(V x, float y) { return _mm512_cmp_ps_mask(x.a, _mm512_set1_ps(y), _CMP_LT_OQ); }
+  SWARMSIM_AVX512 static unsigned ge(V x, float y) { return _mm512_cmp_ps_mask(x.a, _mm512_set1_ps(y), _CMP_GE_OQ); }
   // the lanes of `mask`, in order, to out (all sixteen lanes are written)
-  SWARMSIM_AVX512F_ZONES static void pack(float* out, V x, unsigned mask) {
+  SWARMSIM_AVX512 static void pack(float* out, V x, unsigned mask) {
     _mm512_storeu_ps(out, _mm512_maskz_compress_ps(static_cast<__mmask16>(mask), x.a));
   }
 };
@@ -276,7 +275,7 @@ SWARMSIM_AVX2 __attribute__((flatten)) void collectZonesAvx2(const UniformGrid& 
   grid.forEachRun(z.qx, z.qy, z.qz, r,
                   [&](std::uint32_t b, std::uint32_t e) __attribute__((always_inline)) { packRun<Avx2Pack>(z, b, e, sc); });
 }
-SWARMSIM_AVX512F_ZONES __attribute__((flatten)) void collectZonesAvx512(const UniformGrid& grid, const ZoneInput& z,
+SWARMSIM_AVX512 __attribute__((flatten)) void collectZonesAvx512(const UniformGrid& grid, const ZoneInput& z,
                                                                         float r, Scratch& sc) {
   grid.forEachRun(z.qx, z.qy, z.qz, r, [&](std::uint32_t b, std::uint32_t e) __attribute__((always_inline)) {
     packRun<Avx512Pack>(z, b, e, sc);

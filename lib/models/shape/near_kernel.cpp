@@ -189,6 +189,7 @@ void classifyCandidates(std::size_t m, const Vec3& q, float threshold, float nea
 #if SWARMSIM_X86_LANES
   switch (lanes) {
     case LaneSet::kAvx2:
+    case LaneSet::kAvx512:
       classifyAvx2(mp, q.x(), q.y(), q.z(), threshold, near2, reach2, s, counts);
       break;
     case LaneSet::kAvx:
