@@ -453,9 +453,10 @@ SWARMSIM_AVX512F __attribute__((flatten)) float zoneSumAvx512(float qx, float qy
   return zoneSumFrom<AvxLanes>(qx, qy, qz, x, y, z, n, a, b, j, acc);
 }
 
-// AVX-512 for the sums where the CPU has it (unless SWARMSIM_NO_AVX512 was set when it was first asked)
+// AVX-512 for the sums where laneSet() takes it (as the environment was when first asked: they run many times per
+// agent, and every lane type gives the same bits)
 inline bool sumsOnAvx512() {
-  static const bool yes = __builtin_cpu_supports("avx512f") && !std::getenv("SWARMSIM_NO_AVX512");
+  static const bool yes = laneSet() == LaneSet::kAvx512;
   return yes;
 }
 #endif
