@@ -246,7 +246,41 @@ inline LaneSet laneSet() {
 // entry points and helpers that use AVX-512 (laneSet() == kAvx512). AVX-512F has fused multiply-adds: a file
 // with such entries is compiled with -ffp-contract=off (lib/CMakeLists.txt), so that they give the other
 // lanes' bits
-#define SWARMSIM_AVX512 __attribute__((target("avx512f,avx2,popcnt")))
+#define SWARMSIM_AVX512 __attribute__((target("avx512f,avx2,fma,popcnt")))
+
+// Sixteen float lanes in one AVX-512 register (laneSet() == kAvx512), each computed exactly as AvxLanes computes
+// it, for kernels that take sixteen at a time and add their halves to eight lanes' sums in the eight-lane order.
+// (The zero-masked forms where GCC 12 warns about the undefined vector the unmasked ones start from.)
+struct Avx512Lanes {
+  struct V {
+    __m512 a;
+  };
+  static constexpr std::size_t kWidth = 16;
+  SWARMSIM_AVX512 static V load(const float* p) { return {_mm512_loadu_ps(p)}; }
+  SWARMSIM_AVX512 static V set1(float x) { return {_mm512_set1_ps(x)}; }
+  SWARMSIM_AVX512 static V add(V x, V y) { return {_mm512_add_ps(x.a, y.a)}; }
+  SWARMSIM_AVX512 static V sub(V x, V y) { return {_mm512_sub_ps(x.a, y.a)}; }
+  SWARMSIM_AVX512 static V mul(V x, V y) { return {_mm512_mul_ps(x.a, y.a)}; }
+  SWARMSIM_AVX512 static V min(V x, V y) { return {_mm512_maskz_min_ps(0xffff, x.a, y.a)}; }
+  SWARMSIM_AVX512 static V max(V x, V y) { return {_mm512_maskz_max_ps(0xffff, x.a, y.a)}; }
+  SWARMSIM_AVX512 static V sqrt(V x) { return {_mm512_maskz_sqrt_ps(0xffff, x.a)}; }
+  SWARMSIM_AVX512 static __m512i toInt(V x) { return _mm512_maskz_cvtps_epi32(0xffff, x.a); }  // to nearest
+  SWARMSIM_AVX512 static V round(V x) { return {_mm512_maskz_cvtepi32_ps(0xffff, toInt(x))}; }
+  SWARMSIM_AVX512 static V pow2(V n) {
+    return {_mm512_castsi512_ps(_mm512_maskz_slli_epi32(0xffff, _mm512_add_epi32(toInt(n), _mm512_set1_epi32(127)), 23))};
+  }
+  // x <= y, x < y, x >= y per lane as bits (lane l: bit l)
+  SWARMSIM_AVX512 static unsigned le(V x, V y) { return _mm512_cmp_ps_mask(x.a, y.a, _CMP_LE_OQ); }
+  SWARMSIM_AVX512 static unsigned lt(V x, V y) { return _mm512_cmp_ps_mask(x.a, y.a, _CMP_LT_OQ); }
+  SWARMSIM_AVX512 static unsigned ge(V x, V y) { return _mm512_cmp_ps_mask(x.a, y.a, _CMP_GE_OQ); }
+  // lanes 0..7 and 8..15 as eight lanes each
+  SWARMSIM_AVX512 static void halves(V x, AvxLanes::V& lo, AvxLanes::V& hi) {
+    alignas(64) float t[16];
+    _mm512_store_ps(t, x.a);
+    lo = AvxLanes::load(t);
+    hi = AvxLanes::load(t + 8);
+  }
+};
 
 // for each 8-lane mask, the numbers of its set lanes in order (the rest 0): a table that packs them
 struct LanePackTable {

@@ -123,53 +123,40 @@ __attribute__((noinline)) float exactTotal(const AgentInput& in, const Candidate
 // roots: 16 candidates at a time (AVX-512) or 8 (AVX2 with FMA). Only the bounds use them, so their bits may
 // differ from the exact terms' (and between the two): each bound is lowered by a margin that covers the
 // difference (boundMargin), and the candidate chosen is the exact argmin whatever the lanes.
-#define SWARMSIM_AVX512F __attribute__((target("avx512f,avx2,fma")))
 #define SWARMSIM_AVX2FMA __attribute__((target("avx2,fma")))
 
-struct Avx512Bound {
-  struct V {  // (wrapped, as in core/lanes.hpp: lambdas pass it by value)
-    __m512 a;
-  };
-  static constexpr std::size_t kWidth = 16;
+struct Avx512Bound : Avx512Lanes {
   static constexpr float kRsqrtBelow = 1.0f - 1.25e-4f;  // rsqrt14: relative error <= 2^-14
-  SWARMSIM_AVX512F static __mmask16 live(std::size_t n) {
+  SWARMSIM_AVX512 static __mmask16 live(std::size_t n) {
     return n >= 16 ? static_cast<__mmask16>(0xffff) : static_cast<__mmask16>((1u << n) - 1u);
   }
   // the first n (<= 16) floats at p, zero past them (nothing past them is read)
-  SWARMSIM_AVX512F static V load(const float* p, std::size_t n) { return {_mm512_maskz_loadu_ps(live(n), p)}; }
-  SWARMSIM_AVX512F static void store(float* p, V x, std::size_t n) { _mm512_mask_storeu_ps(p, live(n), x.a); }
+  SWARMSIM_AVX512 static V load(const float* p, std::size_t n) { return {_mm512_maskz_loadu_ps(live(n), p)}; }
+  SWARMSIM_AVX512 static void store(float* p, V x, std::size_t n) { _mm512_mask_storeu_ps(p, live(n), x.a); }
   // lanes n and on set to x
-  SWARMSIM_AVX512F static V fillFrom(V v, std::size_t n, float x) {
+  SWARMSIM_AVX512 static V fillFrom(V v, std::size_t n, float x) {
     return {_mm512_mask_blend_ps(live(n), _mm512_set1_ps(x), v.a)};
   }
-  SWARMSIM_AVX512F static V set1(float x) { return {_mm512_set1_ps(x)}; }
-  SWARMSIM_AVX512F static V add(V x, V y) { return {_mm512_add_ps(x.a, y.a)}; }
-  SWARMSIM_AVX512F static V sub(V x, V y) { return {_mm512_sub_ps(x.a, y.a)}; }
-  SWARMSIM_AVX512F static V mul(V x, V y) { return {_mm512_mul_ps(x.a, y.a)}; }
-  SWARMSIM_AVX512F static V fma(V x, V y, V z) { return {_mm512_fmadd_ps(x.a, y.a, z.a)}; }    // x y + z
-  SWARMSIM_AVX512F static V fnma(V x, V y, V z) { return {_mm512_fnmadd_ps(x.a, y.a, z.a)}; }  // z − x y
-  // (the zero-masked forms: GCC 12 warns about the undefined vector the unmasked ones start from)
-  SWARMSIM_AVX512F static V min(V x, V y) { return {_mm512_maskz_min_ps(0xffff, x.a, y.a)}; }
-  SWARMSIM_AVX512F static V max(V x, V y) { return {_mm512_maskz_max_ps(0xffff, x.a, y.a)}; }
-  SWARMSIM_AVX512F static V abs(V x) {
+  SWARMSIM_AVX512 static V fma(V x, V y, V z) { return {_mm512_fmadd_ps(x.a, y.a, z.a)}; }    // x y + z
+  SWARMSIM_AVX512 static V fnma(V x, V y, V z) { return {_mm512_fnmadd_ps(x.a, y.a, z.a)}; }  // z − x y
+  SWARMSIM_AVX512 static V abs(V x) {
     return {_mm512_castsi512_ps(_mm512_and_epi32(_mm512_castps_si512(x.a), _mm512_set1_epi32(0x7fffffff)))};
   }
-  SWARMSIM_AVX512F static V sqrt(V x) { return {_mm512_maskz_sqrt_ps(0xffff, x.a)}; }
-  SWARMSIM_AVX512F static V rsqrt(V x) { return {_mm512_maskz_rsqrt14_ps(0xffff, x.a)}; }  // relative error <= 2^-14
-  SWARMSIM_AVX512F static V round(V x) {
+  SWARMSIM_AVX512 static V rsqrt(V x) { return {_mm512_maskz_rsqrt14_ps(0xffff, x.a)}; }  // relative error <= 2^-14
+  SWARMSIM_AVX512 static V round(V x) {
     return {_mm512_maskz_roundscale_ps(0xffff, x.a, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC)};
   }
-  SWARMSIM_AVX512F static V scale2(V x, V n) {  // x 2^n
+  SWARMSIM_AVX512 static V scale2(V x, V n) {  // x 2^n
     return {_mm512_maskz_scalef_ps(0xffff, x.a, n.a)};
   }
   // comparisons as bit masks of the first n lanes
-  SWARMSIM_AVX512F static unsigned eq(V x, V y, std::size_t n) {
+  SWARMSIM_AVX512 static unsigned eq(V x, V y, std::size_t n) {
     return _mm512_mask_cmp_ps_mask(live(n), x.a, y.a, _CMP_EQ_OQ);
   }
-  SWARMSIM_AVX512F static unsigned le(V x, V y, std::size_t n) {
+  SWARMSIM_AVX512 static unsigned le(V x, V y, std::size_t n) {
     return _mm512_mask_cmp_ps_mask(live(n), x.a, y.a, _CMP_LE_OQ);
   }
-  SWARMSIM_AVX512F static float minOf(V x) {
+  SWARMSIM_AVX512 static float minOf(V x) {
     alignas(64) float l[16];
     _mm512_store_ps(l, x.a);
     return *std::min_element(l, l + 16);
@@ -354,7 +341,7 @@ __attribute__((always_inline)) inline std::size_t argminWide(const AgentInput& i
   return arg;
 }
 
-__attribute__((flatten)) SWARMSIM_AVX512F std::size_t argminAvx512(const AgentInput& in, const Candidates& c,
+__attribute__((flatten)) SWARMSIM_AVX512 std::size_t argminAvx512(const AgentInput& in, const Candidates& c,
                                                                    const BoundFactors& f, std::size_t first,
                                                                    std::size_t last, const EnergyParams& p, float rep0,
                                                                    float oa0, float danger0, float* lower, float* best) {
@@ -412,32 +399,12 @@ SWARMSIM_AVX __attribute__((flatten)) float zoneSumAvx(float qx, float qy, float
   return zoneSumLanes<AvxLanes>(qx, qy, qz, x, y, z, n, a, b);
 }
 
-// the operations of expLanes on sixteen lanes, each lane exactly as AvxLanes computes it
-struct Avx512Exact {
-  struct V {
-    __m512 a;
-  };
-  SWARMSIM_AVX512F static V load(const float* p) { return {_mm512_loadu_ps(p)}; }
-  SWARMSIM_AVX512F static V set1(float x) { return {_mm512_set1_ps(x)}; }
-  SWARMSIM_AVX512F static V add(V x, V y) { return {_mm512_add_ps(x.a, y.a)}; }
-  SWARMSIM_AVX512F static V sub(V x, V y) { return {_mm512_sub_ps(x.a, y.a)}; }
-  SWARMSIM_AVX512F static V mul(V x, V y) { return {_mm512_mul_ps(x.a, y.a)}; }
-  SWARMSIM_AVX512F static V min(V x, V y) { return {_mm512_maskz_min_ps(0xffff, x.a, y.a)}; }
-  SWARMSIM_AVX512F static V max(V x, V y) { return {_mm512_maskz_max_ps(0xffff, x.a, y.a)}; }
-  SWARMSIM_AVX512F static V sqrt(V x) { return {_mm512_maskz_sqrt_ps(0xffff, x.a)}; }
-  SWARMSIM_AVX512F static __m512i toInt(V x) { return _mm512_maskz_cvtps_epi32(0xffff, x.a); }  // to nearest
-  SWARMSIM_AVX512F static V round(V x) { return {_mm512_maskz_cvtepi32_ps(0xffff, toInt(x))}; }
-  SWARMSIM_AVX512F static V pow2(V n) {
-    return {_mm512_castsi512_ps(_mm512_maskz_slli_epi32(0xffff, _mm512_add_epi32(toInt(n), _mm512_set1_epi32(127)), 23))};
-  }
-};
-
 // zoneSumAvx's sum (the same bits): e^x of sixteen points at a time, their two halves added to the eight lanes'
 // sums one after the other, as the eight-lane loop adds them
-SWARMSIM_AVX512F __attribute__((flatten)) float zoneSumAvx512(float qx, float qy, float qz, const float* x,
+SWARMSIM_AVX512 __attribute__((flatten)) float zoneSumAvx512(float qx, float qy, float qz, const float* x,
                                                               const float* y, const float* z, std::size_t n, float a,
                                                               float b) {
-  using W = Avx512Exact;
+  using W = Avx512Lanes;
   const W::V vqx = W::set1(qx), vqy = W::set1(qy), vqz = W::set1(qz), va = W::set1(a), vb = W::set1(b);
   AvxLanes::V acc = AvxLanes::set1(0.0f);
   std::size_t j = 0;
@@ -445,10 +412,9 @@ SWARMSIM_AVX512F __attribute__((flatten)) float zoneSumAvx512(float qx, float qy
     const W::V dx = W::sub(vqx, W::load(x + j)), dy = W::sub(vqy, W::load(y + j)), dz = W::sub(vqz, W::load(z + j));
     const W::V d = W::sqrt(W::add(W::add(W::mul(dx, dx), W::mul(dy, dy)), W::mul(dz, dz)));
     const W::V e = expLanes<W>(W::add(va, W::mul(vb, d)));
-    alignas(64) float half[16];
-    _mm512_store_ps(half, e.a);
-    acc = AvxLanes::add(acc, AvxLanes::load(half));
-    acc = AvxLanes::add(acc, AvxLanes::load(half + 8));
+    AvxLanes::V lo, hi;
+    W::halves(e, lo, hi);
+    acc = AvxLanes::add(AvxLanes::add(acc, lo), hi);
   }
   return zoneSumFrom<AvxLanes>(qx, qy, qz, x, y, z, n, a, b, j, acc);
 }

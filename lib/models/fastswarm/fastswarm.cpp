@@ -224,49 +224,27 @@ __attribute__((always_inline)) inline void packRun(const ZoneInput& z, std::uint
   }
 }
 
-struct Avx2Pack {
-  struct V {
-    __m256 a;
-  };
+struct Avx2Pack : AvxLanes {
   static constexpr std::uint32_t kWidth = 8;
-  SWARMSIM_AVX2 static V load(const float* p) { return {_mm256_loadu_ps(p)}; }
-  SWARMSIM_AVX2 static V set1(float x) { return {_mm256_set1_ps(x)}; }
-  SWARMSIM_AVX2 static V add(V x, V y) { return {_mm256_add_ps(x.a, y.a)}; }
-  SWARMSIM_AVX2 static V sub(V x, V y) { return {_mm256_sub_ps(x.a, y.a)}; }
-  SWARMSIM_AVX2 static V mul(V x, V y) { return {_mm256_mul_ps(x.a, y.a)}; }
   SWARMSIM_AVX2 static unsigned lanesBelow(std::uint32_t n) { return n >= 8 ? 0xffu : (1u << n) - 1u; }
-  SWARMSIM_AVX2 static unsigned le(V x, float y) {
-    return static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(x.a, _mm256_set1_ps(y), _CMP_LE_OQ)));
-  }
-  SWARMSIM_AVX2 static unsigned lt(V x, float y) {
-    return static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(x.a, _mm256_set1_ps(y), _CMP_LT_OQ)));
-  }
-  SWARMSIM_AVX2 static unsigned ge(V x, float y) {
-    return static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(x.a, _mm256_set1_ps(y), _CMP_GE_OQ)));
-  }
+  SWARMSIM_AVX2 static unsigned le(V x, float y) { return mask(AvxLanes::le(x, set1(y))); }
+  SWARMSIM_AVX2 static unsigned lt(V x, float y) { return mask(AvxLanes::lt(x, set1(y))); }
+  SWARMSIM_AVX2 static unsigned ge(V x, float y) { return mask(AvxLanes::le(set1(y), x)); }
   // the lanes of `mask`, in order, to out (all eight lanes are written)
-  SWARMSIM_AVX2 static void pack(float* out, V x, unsigned mask) {
-    const __m256i pick = _mm256_load_si256(reinterpret_cast<const __m256i*>(kLanePack.lanes[mask]));
+  SWARMSIM_AVX2 static void pack(float* out, V x, unsigned bits) {
+    const __m256i pick = _mm256_load_si256(reinterpret_cast<const __m256i*>(kLanePack.lanes[bits]));
     _mm256_storeu_ps(out, _mm256_permutevar8x32_ps(x.a, pick));
   }
 };
-struct Avx512Pack {
-  struct V {
-    __m512 a;
-  };
+struct Avx512Pack : Avx512Lanes {
   static constexpr std::uint32_t kWidth = 16;
-  SWARMSIM_AVX512 static V load(const float* p) { return {_mm512_loadu_ps(p)}; }
-  SWARMSIM_AVX512 static V set1(float x) { return {_mm512_set1_ps(x)}; }
-  SWARMSIM_AVX512 static V add(V x, V y) { return {_mm512_add_ps(x.a, y.a)}; }
-  SWARMSIM_AVX512 static V sub(V x, V y) { return {_mm512_sub_ps(x.a, y.a)}; }
-  SWARMSIM_AVX512 static V mul(V x, V y) { return {_mm512_mul_ps(x.a, y.a)}; }
   SWARMSIM_AVX512 static unsigned lanesBelow(std::uint32_t n) { return n >= 16 ? 0xffffu : (1u << n) - 1u; }
-  SWARMSIM_AVX512 static unsigned le(V x, float y) { return _mm512_cmp_ps_mask(x.a, _mm512_set1_ps(y), _CMP_LE_OQ); }
-  SWARMSIM_AVX512 static unsigned lt(V x, float y) { return _mm512_cmp_ps_mask(x.a, _mm512_set1_ps(y), _CMP_LT_OQ); }
-  SWARMSIM_AVX512 static unsigned ge(V x, float y) { return _mm512_cmp_ps_mask(x.a, _mm512_set1_ps(y), _CMP_GE_OQ); }
+  SWARMSIM_AVX512 static unsigned le(V x, float y) { return Avx512Lanes::le(x, set1(y)); }
+  SWARMSIM_AVX512 static unsigned lt(V x, float y) { return Avx512Lanes::lt(x, set1(y)); }
+  SWARMSIM_AVX512 static unsigned ge(V x, float y) { return Avx512Lanes::ge(x, set1(y)); }
   // the lanes of `mask`, in order, to out (all sixteen lanes are written)
-  SWARMSIM_AVX512 static void pack(float* out, V x, unsigned mask) {
-    _mm512_storeu_ps(out, _mm512_maskz_compress_ps(static_cast<__mmask16>(mask), x.a));
+  SWARMSIM_AVX512 static void pack(float* out, V x, unsigned bits) {
+    _mm512_storeu_ps(out, _mm512_maskz_compress_ps(static_cast<__mmask16>(bits), x.a));
   }
 };
 
