@@ -205,6 +205,57 @@ TEST_CASE("fastswarm: the argmin is the brute-force minimum of E over the same c
   }
 }
 
+TEST_CASE("fastswarm: the bounds hold at the edges: zero vectors, exact matches, large accelerations, every lane type",
+          "[fastswarm]") {
+  // candidates with v = 0 (û = 0) or a = 0 (â = 0), one equal to the agent's velocity (â' = 0), others far from it
+  // (|a'| of hundreds of m/s^2), and a tail shorter than any lane count (37 candidates)
+  Candidates c;
+  const Vec3 v0(0.3f, -0.2f, 0.1f);
+  c.add(Vec3::Zero(), Vec3(1.0f, 0.0f, 0.0f));
+  c.add(v0, Vec3::Zero());
+  c.add(v0, Vec3(0.0f, 0.0f, 2.0f));
+  c.add(Vec3::Zero(), Vec3::Zero());
+  c.add(Vec3(-4.0f, 3.0f, 0.5f), Vec3(-0.5f, 0.5f, 0.0f));
+  std::mt19937 rng(17);
+  std::normal_distribution<float> g(0.0f, 1.0f);
+  while (c.size() < 37) c.add(Vec3(0.4f * g(rng), 0.4f * g(rng), 0.4f * g(rng)), Vec3(3 * g(rng), 3 * g(rng), 3 * g(rng)));
+  std::vector<float> ax = {0.05f, -0.2f}, ay = {0.1f, 0.2f}, az = {0.0f, 0.1f};
+  for (const bool still : {false, true}) {        // an agent at rest: v̂ = 0
+    for (const bool plain : {false, true}) {      // no noise, no control, no centre: zero directions
+      for (const float rho : {0.5f, 2.5f, 20.0f}) {
+        EnergyParams p;
+        p.rho = rho;
+        p.w.user = 0.8f;
+        p.w.cos = 0.3f;
+        AgentInput in;
+        in.v = still ? Vec3::Zero() : v0;
+        in.vhat = unitOrZero(in.v);
+        if (!plain) {
+          in.noise = unitOrZero(Vec3(0.2f, 1.0f, -0.3f));
+          in.control = in.vhat;  // an exact match for the candidates flying v0
+          in.center = unitOrZero(Vec3(-1.0f, 0.0f, 0.0f));
+        }
+        in.attX = ax.data(), in.attY = ay.data(), in.attZ = az.data(), in.att = ax.size();
+        BoundFactors f;
+        f.build(c, p);
+        float plainBest = 0.0f;
+        const std::size_t want = argminEnergy(in, c, 0, c.size(), p, &plainBest);
+        for (const SearchLanes lanes : availableLanes()) {
+          INFO("still " << still << ", plain " << plain << ", rho " << rho << ", lanes " << static_cast<int>(lanes));
+          std::vector<float> lower;
+          float best = 0.0f;
+          CHECK(argminEnergyBounded(in, c, f, 0, c.size(), p, lower, &best, lanes) == want);
+          CHECK(best == plainBest);
+          for (std::size_t k = 0; k < c.size(); ++k) {
+            INFO("candidate " << k);
+            CHECK(lower[k] <= energyTerms(in, c, k, p).total());
+          }
+        }
+      }
+    }
+  }
+}
+
 TEST_CASE("fastswarm: the speed-group window holds the agent's group and its neighbours", "[fastswarm]") {
   Reference ref;
   ref.groupSize = 10;
