@@ -21,6 +21,7 @@
 #include "models/fastswarm/energy.hpp"
 #include "models/fastswarm/fastswarm.hpp"
 #include "models/fastswarm/reference.hpp"
+#include "lane_sets.hpp"
 #include "refusal_check.hpp"
 #include "test_util.hpp"
 
@@ -94,14 +95,13 @@ TEST_CASE("fastswarm: each energy term against a hand-worked value", "[fastswarm
   CHECK(f.dir == 0.0f);
 }
 
-// the minimiser's lane types this CPU can run (energy.hpp)
+// the minimiser's lane types this CPU can run (energy.hpp): those of its lane sets (tests/lane_sets.hpp)
 std::vector<SearchLanes> availableLanes() {
-  std::vector<SearchLanes> all = {SearchLanes::kSse};
-#if defined(__GNUC__) && defined(__x86_64__)
-  if (__builtin_cpu_supports("avx")) all.push_back(SearchLanes::kAvx);
-  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) all.push_back(SearchLanes::kAvx2Fma);
-  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("fma")) all.push_back(SearchLanes::kAvx512);
-#endif
+  std::vector<SearchLanes> all;
+  for (const swarmsim::LaneSet set : swarmsim_test::laneSetsOfThisCpu()) {
+    const SearchLanes lanes = searchLanes(set);
+    if (std::find(all.begin(), all.end(), lanes) == all.end()) all.push_back(lanes);
+  }
   return all;
 }
 

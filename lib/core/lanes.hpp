@@ -213,6 +213,11 @@ __attribute__((always_inline)) inline float treeSum(typename L::V x) {
   return (f[0] + f[2]) + (f[1] + f[3]);
 }
 
+// the bits of lanes 0..n-1 of a `width`-lane vector (all of them for n >= width)
+constexpr unsigned firstLanes(std::size_t n, std::size_t width) {
+  return n >= width ? (1u << width) - 1u : (1u << n) - 1u;
+}
+
 // 0, 1, ..., 7: lt(load(kLaneIndex), set1(c)) is the mask of lanes 0..c-1
 alignas(32) inline constexpr float kLaneIndex[kLanes] = {0.0f, 1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f, 7.0f};
 

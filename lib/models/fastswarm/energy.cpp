@@ -111,6 +111,15 @@ SWARMSIM_AVX __attribute__((flatten)) void ownTotalsAvx(const AgentInput& in, co
 }
 #endif
 
+// candidate k with E e becomes the best unless it is worse, or tied with a lower index (as in argminEnergy,
+// the lowest index of the least E wins)
+inline void keepBest(float e, std::size_t k, float& least, std::size_t& arg) {
+  if (e < least || (e == least && k < arg)) {
+    least = e;
+    arg = k;
+  }
+}
+
 // a candidate's exact E on exact lanes (AVX: the same bits as SSE), kept out of the wide lanes' flattened entry
 // points below so that none of it is compiled for their instruction sets
 __attribute__((noinline)) float exactTotal(const AgentInput& in, const Candidates& c, std::size_t k,
@@ -127,9 +136,7 @@ __attribute__((noinline)) float exactTotal(const AgentInput& in, const Candidate
 
 struct Avx512Bound : Avx512Lanes {
   static constexpr float kRsqrtBelow = 1.0f - 1.25e-4f;  // rsqrt14: relative error <= 2^-14
-  SWARMSIM_AVX512 static __mmask16 live(std::size_t n) {
-    return n >= 16 ? static_cast<__mmask16>(0xffff) : static_cast<__mmask16>((1u << n) - 1u);
-  }
+  SWARMSIM_AVX512 static __mmask16 live(std::size_t n) { return static_cast<__mmask16>(firstLanes(n, 16)); }
   // the first n (<= 16) floats at p, zero past them (nothing past them is read)
   SWARMSIM_AVX512 static V load(const float* p, std::size_t n) { return {_mm512_maskz_loadu_ps(live(n), p)}; }
   SWARMSIM_AVX512 static void store(float* p, V x, std::size_t n) { _mm512_mask_storeu_ps(p, live(n), x.a); }
@@ -163,10 +170,7 @@ struct Avx512Bound : Avx512Lanes {
   }
 };
 
-struct Avx2Bound {
-  struct V {
-    __m256 a;
-  };
+struct Avx2Bound : AvxLanes {
   static constexpr std::size_t kWidth = 8;
   static constexpr float kRsqrtBelow = 1.0f - 5e-4f;  // rsqrt: relative error <= 1.5 2^-12
   SWARMSIM_AVX2FMA static __m256i live(std::size_t n) {
@@ -186,34 +190,20 @@ struct Avx2Bound {
   SWARMSIM_AVX2FMA static V fillFrom(V v, std::size_t n, float x) {
     return {_mm256_blendv_ps(_mm256_set1_ps(x), v.a, _mm256_castsi256_ps(live(n)))};
   }
-  SWARMSIM_AVX2FMA static V set1(float x) { return {_mm256_set1_ps(x)}; }
-  SWARMSIM_AVX2FMA static V add(V x, V y) { return {_mm256_add_ps(x.a, y.a)}; }
-  SWARMSIM_AVX2FMA static V sub(V x, V y) { return {_mm256_sub_ps(x.a, y.a)}; }
-  SWARMSIM_AVX2FMA static V mul(V x, V y) { return {_mm256_mul_ps(x.a, y.a)}; }
   SWARMSIM_AVX2FMA static V fma(V x, V y, V z) { return {_mm256_fmadd_ps(x.a, y.a, z.a)}; }
   SWARMSIM_AVX2FMA static V fnma(V x, V y, V z) { return {_mm256_fnmadd_ps(x.a, y.a, z.a)}; }
-  SWARMSIM_AVX2FMA static V min(V x, V y) { return {_mm256_min_ps(x.a, y.a)}; }
-  SWARMSIM_AVX2FMA static V max(V x, V y) { return {_mm256_max_ps(x.a, y.a)}; }
-  SWARMSIM_AVX2FMA static V abs(V x) { return {_mm256_andnot_ps(_mm256_set1_ps(-0.0f), x.a)}; }
-  SWARMSIM_AVX2FMA static V sqrt(V x) { return {_mm256_sqrt_ps(x.a)}; }
+  SWARMSIM_AVX2FMA static V abs(V x) { return andnot(set1(-0.0f), x); }
   SWARMSIM_AVX2FMA static V rsqrt(V x) { return {_mm256_rsqrt_ps(x.a)}; }  // relative error <= 1.5 2^-12
-  SWARMSIM_AVX2FMA static V round(V x) { return {_mm256_round_ps(x.a, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC)}; }
-  SWARMSIM_AVX2FMA static V scale2(V x, V n) {  // x 2^n for integral n in [-126, 127]
-    const __m256i e = _mm256_slli_epi32(_mm256_add_epi32(_mm256_cvtps_epi32(n.a), _mm256_set1_epi32(127)), 23);
-    return {_mm256_mul_ps(x.a, _mm256_castsi256_ps(e))};
-  }
+  SWARMSIM_AVX2FMA static V scale2(V x, V n) { return mul(x, pow2(n)); }  // x 2^n for integral n in [-126, 127]
+  // comparisons as bit masks of the first n lanes
   SWARMSIM_AVX2FMA static unsigned eq(V x, V y, std::size_t n) {
-    return static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(x.a, y.a, _CMP_EQ_OQ))) & liveBits(n);
+    return static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(x.a, y.a, _CMP_EQ_OQ))) & firstLanes(n, 8);
   }
-  SWARMSIM_AVX2FMA static unsigned le(V x, V y, std::size_t n) {
-    return static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(x.a, y.a, _CMP_LE_OQ))) & liveBits(n);
-  }
-  static unsigned liveBits(std::size_t n) { return n >= 8 ? 0xffu : (1u << n) - 1u; }
+  SWARMSIM_AVX2FMA static unsigned le(V x, V y, std::size_t n) { return mask(AvxLanes::le(x, y)) & firstLanes(n, 8); }
   SWARMSIM_AVX2FMA static float minOf(V x) {
-    __m128 m = _mm_min_ps(_mm256_castps256_ps128(x.a), _mm256_extractf128_ps(x.a, 1));
-    m = _mm_min_ps(m, _mm_movehl_ps(m, m));
-    m = _mm_min_ss(m, _mm_shuffle_ps(m, m, 1));
-    return _mm_cvtss_f32(m);
+    float l[8];
+    AvxLanes::store(l, x);
+    return *std::min_element(l, l + 8);
   }
 };
 
@@ -223,8 +213,8 @@ struct Avx2Bound {
 inline float boundMargin(const EnergyParams& p) { return 1e-4f + 4e-6f * p.rho; }
 
 // the lower bounds of the candidates [first, first + n) into out[0, n) and their least value: the own terms
-// (eq. 7, 9, 10, 13, 14, the lures of eq. 11) less the margin, plus the interaction's bound (f times the
-// energies of no move: base... as argminEnergyBounded)
+// (eq. 7, 9, 10, 13, 14, the lures of eq. 11) less the margin, plus the interaction's bound (the factors f times
+// the energies of no move rep0, oa0, danger0, as in argminEnergyBounded)
 template <typename L>
 __attribute__((always_inline)) inline float boundsWide(const AgentInput& in, const Candidates& c,
                                                        const BoundFactors& f, std::size_t first, std::size_t n,
@@ -330,11 +320,7 @@ __attribute__((always_inline)) inline std::size_t argminWide(const AgentInput& i
       const std::size_t i = b + static_cast<std::size_t>(__builtin_ctz(m));
       if (i == start || !(lower[i] <= least)) continue;
       const std::size_t k = first + i;
-      const float e = exactTotal(in, c, k, p);
-      if (e < least || (e == least && k < arg)) {  // the lowest index wins a tie, as in argminEnergy
-        least = e;
-        arg = k;
-      }
+      keepBest(exactTotal(in, c, k, p), k, least, arg);
     }
   }
   if (best) *best = least;
@@ -476,8 +462,10 @@ EnergyTerms energyTermsWith(bool avx, const AgentInput& in, const Candidates& c,
   return e;
 }
 
-SearchLanes searchLanes() {
-  switch (laneSet()) {
+SearchLanes searchLanes() { return searchLanes(laneSet()); }
+
+SearchLanes searchLanes(LaneSet set) {
+  switch (set) {
     case LaneSet::kSse:
       return SearchLanes::kSse;
     case LaneSet::kAvx:
@@ -489,7 +477,7 @@ SearchLanes searchLanes() {
 #if SWARMSIM_X86_LANES
   static const bool fma = __builtin_cpu_supports("fma");
   if (!fma) return SearchLanes::kAvx;
-  return laneSet() == LaneSet::kAvx512 ? SearchLanes::kAvx512 : SearchLanes::kAvx2Fma;
+  return set == LaneSet::kAvx512 ? SearchLanes::kAvx512 : SearchLanes::kAvx2Fma;
 #else
   return SearchLanes::kSse;
 #endif
@@ -571,11 +559,7 @@ std::size_t argminEnergyBounded(const AgentInput& in, const Candidates& c, const
   float least = energyTermsWith(avx, in, c, start, p).total();
   for (std::size_t k = first; k < last; ++k) {
     if (k == start || !(lower[k - first] <= least)) continue;
-    const float e = energyTermsWith(avx, in, c, k, p).total();
-    if (e < least || (e == least && k < arg)) {  // the lowest index wins a tie, as in argminEnergy
-      least = e;
-      arg = k;
-    }
+    keepBest(energyTermsWith(avx, in, c, k, p).total(), k, least, arg);
   }
   if (best) *best = least;
   return arg;

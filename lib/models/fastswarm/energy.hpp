@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/lanes.hpp"
 #include "core/vec.hpp"
 
 namespace swarmsim::fastswarm {
@@ -103,6 +104,7 @@ struct BoundFactors {
 // this CPU has, narrowed by core/lanes.hpp's SWARMSIM_NO_AVX and SWARMSIM_NO_AVX2 and by SWARMSIM_NO_AVX512
 enum class SearchLanes { kSse, kAvx, kAvx2Fma, kAvx512 };
 SearchLanes searchLanes();
+SearchLanes searchLanes(LaneSet set);  // for laneSet() == set (AVX2 or AVX-512 without FMA: AVX)
 
 // argminEnergy's result (the same candidate: the lowest index of the least E), found by branch and bound:
 // E's own terms exactly and the interaction bounded below for every candidate, then the exact E only where

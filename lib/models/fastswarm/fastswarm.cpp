@@ -123,6 +123,16 @@ struct ZoneInput {
   float qx, qy, qz, rep2, att12, r2, dt;
 };
 
+// the points [j, end) one at a time (a run's last points, fewer than a vector before the grid's end)
+__attribute__((always_inline)) inline void collectTail(const ZoneInput& z, std::uint32_t j, std::uint32_t end,
+                                                       Scratch& sc) {
+  for (; j < end; ++j) {
+    const float dx = z.sx[j] - z.qx, dy = z.sy[j] - z.qy, dz = z.sz[j] - z.qz;
+    const float d2 = dx * dx + dy * dy + dz * dz;
+    if (d2 <= z.r2 && j != z.self) addToZones(sc, d2, z.rep2, z.att12, z.sx[j], z.sy[j], z.sz[j], z.vx[j], z.vy[j], z.vz[j], z.dt);
+  }
+}
+
 template <typename L>
 __attribute__((always_inline)) inline void collectRunLanes(const ZoneInput& z, std::uint32_t begin, std::uint32_t end,
                                                            Scratch& sc) {
@@ -149,11 +159,7 @@ __attribute__((always_inline)) inline void collectRunLanes(const ZoneInput& z, s
       take(j + i, d[i]);
     }
   }
-  for (; j < end; ++j) {  // the last points of the grid (fewer than eight left)
-    const float dx = z.sx[j] - z.qx, dy = z.sy[j] - z.qy, dz = z.sz[j] - z.qz;
-    const float d2 = dx * dx + dy * dy + dz * dz;
-    if (d2 <= z.r2) take(j, d2);
-  }
+  collectTail(z, j, end, sc);
 }
 
 template <typename L>
@@ -197,7 +203,7 @@ __attribute__((always_inline)) inline void packRun(const ZoneInput& z, std::uint
     const V px = P::load(sx + j), py = P::load(sy + j), pz = P::load(sz + j);
     const V dx = P::sub(px, qx), dy = P::sub(py, qy), dz = P::sub(pz, qz);
     const V d2 = P::add(P::add(P::mul(dx, dx), P::mul(dy, dy)), P::mul(dz, dz));
-    unsigned live = P::lanesBelow(end - j) & P::le(d2, r2);
+    unsigned live = firstLanes(end - j, w) & P::le(d2, r2);
     if (self - j < w) live &= ~(1u << (self - j));
     const unsigned rep = live & P::lt(d2, rep2), att = live & ~rep & P::ge(d2, att12);
     if (rep != 0) {  // predicted positions p + v dt
@@ -217,16 +223,11 @@ __attribute__((always_inline)) inline void packRun(const ZoneInput& z, std::uint
   }
   sc.nRep = nRep;
   sc.nAtt = nAtt;
-  for (; j < end; ++j) {  // the last points of the grid (fewer than a vector left)
-    const float dx = z.sx[j] - z.qx, dy = z.sy[j] - z.qy, dz = z.sz[j] - z.qz;
-    const float d2 = dx * dx + dy * dy + dz * dz;
-    if (d2 <= z.r2 && j != z.self) addToZones(sc, d2, z.rep2, z.att12, z.sx[j], z.sy[j], z.sz[j], z.vx[j], z.vy[j], z.vz[j], z.dt);
-  }
+  collectTail(z, j, end, sc);
 }
 
 struct Avx2Pack : AvxLanes {
   static constexpr std::uint32_t kWidth = 8;
-  SWARMSIM_AVX2 static unsigned lanesBelow(std::uint32_t n) { return n >= 8 ? 0xffu : (1u << n) - 1u; }
   SWARMSIM_AVX2 static unsigned le(V x, float y) { return mask(AvxLanes::le(x, set1(y))); }
   SWARMSIM_AVX2 static unsigned lt(V x, float y) { return mask(AvxLanes::lt(x, set1(y))); }
   SWARMSIM_AVX2 static unsigned ge(V x, float y) { return mask(AvxLanes::le(set1(y), x)); }
@@ -238,7 +239,6 @@ struct Avx2Pack : AvxLanes {
 };
 struct Avx512Pack : Avx512Lanes {
   static constexpr std::uint32_t kWidth = 16;
-  SWARMSIM_AVX512 static unsigned lanesBelow(std::uint32_t n) { return n >= 16 ? 0xffffu : (1u << n) - 1u; }
   SWARMSIM_AVX512 static unsigned le(V x, float y) { return Avx512Lanes::le(x, set1(y)); }
   SWARMSIM_AVX512 static unsigned lt(V x, float y) { return Avx512Lanes::lt(x, set1(y)); }
   SWARMSIM_AVX512 static unsigned ge(V x, float y) { return Avx512Lanes::ge(x, set1(y)); }
@@ -261,16 +261,16 @@ SWARMSIM_AVX512 __attribute__((flatten)) void collectZonesAvx512(const UniformGr
 }
 #endif
 
-void collectZones(fastswarm::SearchLanes lanes, const UniformGrid& grid, const ZoneInput& z, float r, Scratch& sc) {
+void collectZones(LaneSet lanes, const UniformGrid& grid, const ZoneInput& z, float r, Scratch& sc) {
 #if SWARMSIM_X86_LANES
   switch (lanes) {
-    case fastswarm::SearchLanes::kSse:
+    case LaneSet::kSse:
       return collectZonesSse(grid, z, r, sc);
-    case fastswarm::SearchLanes::kAvx:
+    case LaneSet::kAvx:
       return collectZonesAvx(grid, z, r, sc);
-    case fastswarm::SearchLanes::kAvx2Fma:
+    case LaneSet::kAvx2:
       return collectZonesAvx2(grid, z, r, sc);
-    case fastswarm::SearchLanes::kAvx512:
+    case LaneSet::kAvx512:
       return collectZonesAvx512(grid, z, r, sc);
   }
 #else
@@ -374,8 +374,9 @@ class Fastswarm final : public Model {
     const fastswarm::Reference& ref = *p_.reference;
     // per agent, dynamically scheduled: an agent's search (microseconds) outweighs its neighbour lookup, and a
     // dense swarm fills only a few grid cells, which would leave threads idle if the work went cell by cell
-    const fastswarm::SearchLanes lanes = fastswarm::searchLanes();
-    const bool avx = lanes != fastswarm::SearchLanes::kSse;
+    const LaneSet laneKind = laneSet();
+    const fastswarm::SearchLanes lanes = fastswarm::searchLanes(laneKind);
+    const bool avx = laneKind != LaneSet::kSse;
     parallelForDynamic(n, 16, [&](std::size_t k) {
       Scratch& sc = scratch_[static_cast<std::size_t>(threadIndex())];
       sc.nRep = sc.nAtt = 0;
@@ -383,7 +384,7 @@ class Fastswarm final : public Model {
       // attraction from d_att,1 to d_att,2 (current positions)
       ZoneInput zin{sx, sy, sz, vx_.data(), vy_.data(), vz_.data(), n, static_cast<std::uint32_t>(k), sx[k], sy[k], sz[k],
                     rep2, att12, dAtt2 * dAtt2, dt};
-      collectZones(lanes, grid_, zin, dAtt2, sc);
+      collectZones(laneKind, grid_, zin, dAtt2, sc);
       seen_.forEachNear(sx[k], sy[k], sz[k], dAtt2, [&](float px, float py, float pz, float ux, float uy, float uz, float d2) {
         addToZones(sc, d2, rep2, att12, px, py, pz, ux, uy, uz, dt);
       });
