@@ -58,6 +58,18 @@ struct NoAvxGuard {
   ~NoAvxGuard() { was ? setenv("SWARMSIM_NO_AVX", saved.c_str(), 1) : unsetenv("SWARMSIM_NO_AVX"); }
 };
 
+// SWARMSIM_NO_AVX512 set for its lifetime when `on` (and then restored)
+struct NoAvx512Guard {
+  bool on, was = std::getenv("SWARMSIM_NO_AVX512") != nullptr;
+  std::string saved = was ? std::getenv("SWARMSIM_NO_AVX512") : "";
+  explicit NoAvx512Guard(bool set) : on(set) {
+    if (on) setenv("SWARMSIM_NO_AVX512", "1", 1);
+  }
+  ~NoAvx512Guard() {
+    if (on) was ? setenv("SWARMSIM_NO_AVX512", saved.c_str(), 1) : unsetenv("SWARMSIM_NO_AVX512");
+  }
+};
+
 // lattice coordinates that stress the cell and offset: random ones (both signs, beyond the period 256), lattice
 // planes, signed zeros, the smallest magnitudes, halves (ties of the rounding in floorLanes) and large magnitudes
 // around 2^52, beyond which every double is an integer
@@ -227,6 +239,44 @@ TEST_CASE("Perlin noise on SIMD lanes equals withGradient bit for bit", "[noise]
   }
 }
 
+TEST_CASE("Perlin noise on eight AVX-512 lanes equals withGradient bit for bit", "[noise][fields]") {
+  if (!PerlinNoise3::batchWide()) {
+    WARN("no AVX-512 F and DQ here (or SWARMSIM_NO_AVX512 set): the wide lanes are not tested");
+    return;
+  }
+  constexpr int kWide = PerlinNoise3::kWideLanes;
+  const PerlinNoise3 noises[4] = {PerlinNoise3(11), PerlinNoise3(12), PerlinNoise3(0xDEADBEEF), PerlinNoise3(5)};
+  Lcg rng{23};
+  int mismatches = 0, compared = 0;
+  // one, three and four noises (three at a time inside: the fourth is a second group)
+  for (const int count : {1, 3, 4}) {
+    for (int b = 0; b < 2000; ++b) {
+      double p[3][kWide];
+      for (auto& axis : p)
+        for (double& c : axis) c = latticeCoordinate(rng);
+      std::vector<double> g[3];
+      for (auto& gi : g) gi.assign(static_cast<std::size_t>(count * kWide), -7.0);
+      PerlinNoise3::withGradientWide(noises, count, p[0], p[1], p[2], g[0].data(), g[1].data(), g[2].data());
+      for (int k = 0; k < count; ++k) {
+        for (int l = 0; l < kWide; ++l) {
+          Vec3d grad;
+          noises[k].withGradient(Vec3d(p[0][l], p[1][l], p[2][l]), grad);
+          const auto i = static_cast<std::size_t>(k * kWide + l);
+          ++compared;
+          if (!(sameBits(grad.x(), g[0][i]) && sameBits(grad.y(), g[1][i]) && sameBits(grad.z(), g[2][i])) &&
+              ++mismatches <= 5) {
+            UNSCOPED_INFO("noise " << k << " at (" << p[0][l] << ", " << p[1][l] << ", " << p[2][l]
+                                   << "): gradient (" << grad.transpose() << ") vs (" << g[0][i] << " " << g[1][i]
+                                   << " " << g[2][i] << ")");
+          }
+        }
+      }
+    }
+  }
+  CHECK(compared == 2000 * 8 * 8);
+  CHECK(mismatches == 0);
+}
+
 TEST_CASE("The exact curl in batches equals curlRaw bit for bit", "[noise][fields]") {
   const swarmsim::NoisePotential pot(testParams());
   Lcg rng{17};
@@ -235,7 +285,10 @@ TEST_CASE("The exact curl in batches equals curlRaw bit for bit", "[noise][field
     for (int i = 0; i < 8000; ++i)
       axis.push_back(rng.below(4) == 0 ? 2.0 * (rng.below(41) - 20) : rng.uniform(-40, 40));
   }
-  for (const bool avx : {false, cpuHasAvx()}) {
+  // SSE2 lanes; AVX ones (eight at a time where batchWide() holds); with SWARMSIM_NO_AVX512 four AVX lanes
+  for (const int pass : {0, 1, 2}) {
+    const bool avx = pass > 0 && cpuHasAvx();
+    const NoAvx512Guard narrow(pass == 2);
     // counts around the lanes and the chunks of 64 points, and all the points at once
     for (const std::size_t n : {0, 1, 3, 5, 17, 63, 64, 65, 130, 8000}) {
       std::vector<double> c[3];
@@ -246,7 +299,7 @@ TEST_CASE("The exact curl in batches equals curlRaw bit for bit", "[noise][field
         const Vec3d want = pot.curlRaw(Vec3d(x[0][i], x[1][i], x[2][i]));
         bad += !(sameBits(want.x(), c[0][i]) && sameBits(want.y(), c[1][i]) && sameBits(want.z(), c[2][i]));
       }
-      INFO("avx " << avx << ", n " << n);
+      INFO("avx " << avx << ", wide " << PerlinNoise3::batchWide() << ", n " << n);
       CHECK(bad == 0);
       CHECK((c[0][n] == -1.0 && c[1][n] == -1.0 && c[2][n] == -1.0));  // nothing written beyond n
     }

@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <type_traits>
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(SWARMSIM_PORTABLE_LANES)
 #include <immintrin.h>
 #define SWARMSIM_X86_LANES 1
@@ -95,6 +96,25 @@ struct AvxLanes {
   SWARMSIM_AVX static void store(float* p, V x) { _mm256_storeu_ps(p, x.a); }
   SWARMSIM_AVX static void fold4(V x, float* p) {
     _mm_storeu_ps(p, _mm_add_ps(_mm256_castps256_ps128(x.a), _mm256_extractf128_ps(x.a, 1)));
+  }
+  // lane i + lane i+4 of two vectors: [p_lo + p_hi | q_lo + q_hi]
+  SWARMSIM_AVX static __m256 fold(__m256 p, __m256 q) {
+    return _mm256_add_ps(_mm256_permute2f128_ps(p, q, 0x20), _mm256_permute2f128_ps(p, q, 0x31));
+  }
+  // treeSum (below) of eight vectors at once, out[i] = treeSum(x[i]), the same additions of the same operands:
+  // transposed, three vector additions where eight treeSums take twenty-four scalar ones
+  SWARMSIM_AVX static void treeSums8(const V x[8], float* out) {
+    // the pairs (0, 4), (1, 5), (2, 6), (3, 7): the last step's lanes come out as 0, 1, 2, 3 | 4, 5, 6, 7
+    const __m256 f04 = fold(x[0].a, x[4].a), f15 = fold(x[1].a, x[5].a);
+    const __m256 f26 = fold(x[2].a, x[6].a), f37 = fold(x[3].a, x[7].a);
+    // f0 + f2 and f1 + f3 of each
+    const __m256 s01 = _mm256_add_ps(_mm256_shuffle_ps(f04, f15, _MM_SHUFFLE(1, 0, 1, 0)),
+                                     _mm256_shuffle_ps(f04, f15, _MM_SHUFFLE(3, 2, 3, 2)));
+    const __m256 s23 = _mm256_add_ps(_mm256_shuffle_ps(f26, f37, _MM_SHUFFLE(1, 0, 1, 0)),
+                                     _mm256_shuffle_ps(f26, f37, _MM_SHUFFLE(3, 2, 3, 2)));
+    // (f0 + f2) + (f1 + f3)
+    _mm256_storeu_ps(out, _mm256_add_ps(_mm256_shuffle_ps(s01, s23, _MM_SHUFFLE(2, 0, 2, 0)),
+                                        _mm256_shuffle_ps(s01, s23, _MM_SHUFFLE(3, 1, 3, 1))));
   }
   SWARMSIM_AVX static V min(V x, V y) { return {_mm256_min_ps(x.a, y.a)}; }
   SWARMSIM_AVX static V gt(V x, V y) { return {_mm256_cmp_ps(x.a, y.a, _CMP_GT_OQ)}; }
@@ -211,6 +231,21 @@ __attribute__((always_inline)) inline float treeSum(typename L::V x) {
   alignas(16) float f[4];
   L::fold4(x, f);
   return (f[0] + f[2]) + (f[1] + f[3]);
+}
+
+template <typename L, typename = void>
+struct HasTreeSums8 : std::false_type {};
+template <typename L>
+struct HasTreeSums8<L, std::void_t<decltype(L::treeSums8(nullptr, nullptr))>> : std::true_type {};
+
+// out[i] = treeSum(x[i]) for i < 8: the lane type's own treeSums8 where it has one
+template <typename L>
+__attribute__((always_inline)) inline void treeSums8(const typename L::V x[8], float* out) {
+  if constexpr (HasTreeSums8<L>::value) {
+    L::treeSums8(x, out);
+  } else {
+    for (int i = 0; i < 8; ++i) out[i] = treeSum<L>(x[i]);
+  }
 }
 
 // the bits of lanes 0..n-1 of a `width`-lane vector (all of them for n >= width)

@@ -84,11 +84,13 @@ Vec3d NoisePotential::curlRaw(const Vec3d& x) const {
 
 void NoisePotential::curlRawBatch(const double* x, const double* y, const double* z, std::size_t n, double* cx,
                                   double* cy, double* cz, bool avx) const {
-  constexpr std::size_t L = PerlinNoise3::kLanes;
+  // eight points at a time on AVX-512, else four (the same bits)
+  const bool wide = avx && PerlinNoise3::batchWide();
+  const std::size_t L = wide ? PerlinNoise3::kWideLanes : PerlinNoise3::kLanes;
   // a chunk's lattice coordinates are all written before the lanes load them (a vector load of values just
   // stored one by one would wait for the stores); the last batch of lanes is padded with the chunk's first point
   constexpr std::size_t kChunk = 64;
-  static_assert(kChunk % L == 0, "chunks of whole batches");
+  static_assert(kChunk % PerlinNoise3::kLanes == 0 && kChunk % PerlinNoise3::kWideLanes == 0, "whole batches");
   double u[3][kChunk];
   for (std::size_t start = 0; start < n; start += kChunk) {
     const std::size_t m = std::min(kChunk, n - start);
@@ -101,14 +103,19 @@ void NoisePotential::curlRawBatch(const double* x, const double* y, const double
       for (auto& ua : u) ua[i] = ua[0];
     }
     for (std::size_t i = 0; i < m; i += L) {
-      double g[3][3][L];  // g[a][c][l] = ∂P_c/∂u_a at point i + l, curlRaw's g[c][a]
-      PerlinNoise3::withGradientLanes(perlin_.data(), 3, u[0] + i, u[1] + i, u[2] + i, nullptr, g[0][0], g[1][0],
-                                      g[2][0], avx);
+      // g[a][c * L + l] = ∂P_c/∂u_a at point i + l, curlRaw's g[c][a]
+      double g[3][3 * PerlinNoise3::kWideLanes];
+      if (wide) {
+        PerlinNoise3::withGradientWide(perlin_.data(), 3, u[0] + i, u[1] + i, u[2] + i, g[0], g[1], g[2]);
+      } else {
+        PerlinNoise3::withGradientLanes(perlin_.data(), 3, u[0] + i, u[1] + i, u[2] + i, nullptr, g[0], g[1], g[2],
+                                        avx);
+      }
       for (std::size_t l = 0; l < L && i + l < m; ++l) {
         const std::size_t k = start + i + l;
-        cx[k] = (g[1][2][l] - g[2][1][l]) * params_.gain;
-        cy[k] = (g[2][0][l] - g[0][2][l]) * params_.gain;
-        cz[k] = (g[0][1][l] - g[1][0][l]) * params_.gain;
+        cx[k] = (g[1][2 * L + l] - g[2][L + l]) * params_.gain;
+        cy[k] = (g[2][l] - g[0][2 * L + l]) * params_.gain;
+        cz[k] = (g[0][L + l] - g[1][l]) * params_.gain;
       }
     }
   }

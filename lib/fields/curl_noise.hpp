@@ -52,7 +52,8 @@ class NoisePotential {
   // ∇ × P(x), exact (from the noises' analytic gradients): the curl where the blend is 1
   Vec3d curlRaw(const Vec3d& x) const;
   // curlRaw at the n points (x[i], y[i], z[i]) into (cx[i], cy[i], cz[i]), equal to it bit for bit, computed
-  // PerlinNoise3::kLanes points at a time on SIMD lanes (avx as in PerlinNoise3::withGradientLanes)
+  // PerlinNoise3::kLanes points at a time on SIMD lanes (avx as in PerlinNoise3::withGradientLanes), or
+  // kWideLanes at a time where avx is set and PerlinNoise3::batchWide() says so
   void curlRawBatch(const double* x, const double* y, const double* z, std::size_t n, double* cx, double* cy,
                     double* cz, bool avx) const;
   double d0() const { return params_.d0; }

@@ -1,16 +1,14 @@
 #include "fields/noise.hpp"
 
+#include "core/lanes.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <stdexcept>
 #include <utility>
-
-#if defined(__GNUC__) && defined(__x86_64__) && !defined(SWARMSIM_PORTABLE_LANES)
-#define SWARMSIM_X86_LANES 1
-#define SWARMSIM_AVX __attribute__((target("avx")))
-#endif
 
 namespace swarmsim {
 
@@ -47,6 +45,12 @@ constexpr double kNormalize = 1.0 / 1.0364;
 // vector, whose ABI would depend on AVX (-Wno-psabi, lib/CMakeLists.txt, silences GCC's note about that ABI).
 typedef double V4 __attribute__((vector_size(32)));
 typedef double V2 __attribute__((vector_size(16)));
+typedef double V8 __attribute__((vector_size(64)));
+#if SWARMSIM_X86_LANES
+// the wide batch's entry (DQ for the 64-bit conversion of the cells; zero-masked intrinsics where GCC 12
+// warns about the undefined vector the unmasked ones start from)
+#define SWARMSIM_NOISE_WIDE __attribute__((target("avx512f,avx512dq,avx2")))
+#endif
 static_assert(PerlinNoise3::kLanes == 4, "V4 holds one batch");
 
 // Every function that takes or returns a vector is always inlined: a call passing one would depend on the
@@ -215,6 +219,63 @@ struct PerlinNoise3::Lanes {
                                                         double* gy, double* gz) {
     run<V4>(noises, count, px, py, pz, value, gx, gy, gz, 0);
   }
+
+  // eight points on the eight doubles of an AVX-512 register: the hashes per lane, the corners' gradients
+  // by two-register permutes (kGrad's 16 rows), the arithmetic the same generic code as every other batch
+  SWARMSIM_NOISE_WIDE __attribute__((flatten)) static void wide(const PerlinNoise3* noises, int count, const double* px,
+                                                                 const double* py, const double* pz, double* gx,
+                                                                 double* gy, double* gz) {
+    const V8 p[3] = {load<V8>(px), load<V8>(py), load<V8>(pz)};
+    __m256i cell[3];
+    V8 t[3], f[3], df[3];
+    const __m256i low8 = _mm256_set1_epi32(255);
+    for (int a = 0; a < 3; ++a) {
+      const V8 fl = floorLanes(p[a]);
+      // wrapCell: the integer's low eight bits (the 64-bit conversion, as the scalar code's, then its low half)
+      cell[a] = _mm256_and_si256(_mm512_maskz_cvtepi64_epi32(0xff, _mm512_maskz_cvttpd_epi64(0xff, fl)), low8);
+      t[a] = p[a] - fl;
+      f[a] = fade(t[a]);
+      df[a] = dfade(t[a]);
+    }
+    // kGrad's column a as two registers of eight rows
+    __m512d col[3][2];
+    for (int a = 0; a < 3; ++a) {
+      alignas(64) double c[16];
+      for (int r = 0; r < 16; ++r) c[r] = kGrad[r][a];
+      col[a][0] = _mm512_load_pd(c);
+      col[a][1] = _mm512_load_pd(c + 8);
+    }
+    alignas(32) int cells[3][kWideLanes];
+    for (int a = 0; a < 3; ++a) _mm256_store_si256(reinterpret_cast<__m256i*>(cells[a]), cell[a]);
+    // each noise's corner rows (hash & 15) per lane, by cornerGradients' scalar look-ups (their short chains
+    // of loads are quicker than vector gathers), three noises at a time, then as vectors
+    alignas(32) int rows[3][8][kWideLanes];
+    double* const out[3] = {gx, gy, gz};
+    for (int first = 0; first < count; first += 3) {
+      const int group = std::min(3, count - first);
+      for (int k = 0; k < group; ++k) {
+        const std::uint8_t* perm = noises[first + k].perm_.data();
+        for (int l = 0; l < kWideLanes; ++l) {
+          const int X = cells[0][l], Y = cells[1][l], Z = cells[2][l];
+          const int a = perm[X] + Y, aa = perm[a] + Z, ab = perm[a + 1] + Z;
+          const int b = perm[X + 1] + Y, ba = perm[b] + Z, bb = perm[b + 1] + Z;
+          const int corner[8] = {aa, ba, ab, bb, aa + 1, ba + 1, ab + 1, bb + 1};
+          for (int c = 0; c < 8; ++c) rows[k][c][l] = perm[corner[c]] & 15;
+        }
+      }
+      for (int k = 0; k < group; ++k) {
+        V8 G[8][3];
+        for (int c = 0; c < 8; ++c) {
+          const __m512i row =
+              _mm512_maskz_cvtepu32_epi64(0xff, _mm256_load_si256(reinterpret_cast<const __m256i*>(rows[k][c])));
+          for (int d = 0; d < 3; ++d) G[c][d] = _mm512_maskz_permutex2var_pd(0xff, col[d][0], row, col[d][1]);
+        }
+        V8 grad[3];
+        blend(G, t[0], t[1], t[2], f[0], f[1], f[2], df[0], df[1], df[2], grad);
+        for (int d = 0; d < 3; ++d) store(out[d] + (first + k) * kWideLanes, grad[d]);
+      }
+    }
+  }
 #endif
 };
 
@@ -277,6 +338,25 @@ bool PerlinNoise3::batchAvx() {
 #if SWARMSIM_X86_LANES
   static const bool cpu = __builtin_cpu_supports("avx");
   return cpu && !std::getenv("SWARMSIM_NO_AVX");
+#else
+  return false;
+#endif
+}
+
+void PerlinNoise3::withGradientWide(const PerlinNoise3* noises, int count, const double* px, const double* py,
+                                    const double* pz, double* gx, double* gy, double* gz) {
+#if SWARMSIM_X86_LANES
+  Lanes::wide(noises, count, px, py, pz, gx, gy, gz);
+#else
+  (void)noises, (void)count, (void)px, (void)py, (void)pz, (void)gx, (void)gy, (void)gz;
+  throw std::logic_error("PerlinNoise3::withGradientWide without AVX-512");
+#endif
+}
+
+bool PerlinNoise3::batchWide() {
+#if SWARMSIM_X86_LANES
+  static const bool cpu = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq");
+  return cpu && laneSet() == LaneSet::kAvx512;
 #else
   return false;
 #endif

@@ -45,6 +45,17 @@ class PerlinNoise3 {
   // test can compare the two paths)
   static bool batchAvx();
 
+  // the points one wide batch call evaluates together: eight doubles of an AVX-512 register
+  static constexpr int kWideLanes = 8;
+  // withGradientLanes' gradients at kWideLanes points, the same bits: noise k's gradient at point l in
+  // (gx, gy, gz)[k * kWideLanes + l]. The hashes are looked up per lane, the gradients' rows by vector
+  // permutes. Only where batchWide() says so.
+  static void withGradientWide(const PerlinNoise3* noises, int count, const double* px, const double* py,
+                               const double* pz, double* gx, double* gy, double* gz);
+  // whether the CPU has AVX-512 F and DQ and the lanes are not limited (laneSet() == kAvx512: neither
+  // SWARMSIM_NO_AVX512 nor a narrower setting; read at each call)
+  static bool batchWide();
+
  private:
   struct Lanes;  // the SIMD code of withGradientLanes, one entry per instruction set (noise.cpp)
 

@@ -78,11 +78,13 @@ inline void zonalLanes(const NearScratch& s, std::size_t m, const ZoneLanes& z, 
     acc[10] = L::add(acc[10], L::band(inAli, one));
     acc[11] = L::add(acc[11], L::band(inAtt, one));
   }
-  for (int c = 9; c < 12; ++c) out[c] = treeSum<L>(acc[c]);
-  for (int zone = 0; zone < 3; ++zone) {
-    if (out[9 + zone] == 0.0f) continue;  // an empty zone adds nothing: its sums are not needed
-    for (int a = 0; a < 3; ++a) out[3 * zone + a] = treeSum<L>(acc[3 * zone + a]);
-  }
+  // every lane sum (an empty zone's are not used), eight at a time
+  const V zero = L::set1(0.0f);
+  const V rest[8] = {acc[8], acc[9], acc[10], acc[11], zero, zero, zero, zero};
+  float tail[8];
+  treeSums8<L>(acc, out);
+  treeSums8<L>(rest, tail);
+  for (int c = 8; c < 12; ++c) out[c] = tail[c - 8];
 }
 
 // kAvx2: the indices of each class packed by an AVX2 table look-up (packSetLanes), without a branch per
