@@ -133,6 +133,55 @@ SWARMSIM_AVX2 __attribute__((flatten)) void classifyAvx2(std::size_t m, float qx
                                                          float n2, float r2, NearScratch& s, std::size_t c[3]) {
   classifyLanes<AvxLanes, true>(m, qx, qy, qz, t, n2, r2, s, c);
 }
+// classifyLanes<AvxLanes, true> of candidates given by id: each one's sorted position through posOfId, its
+// position one 16-byte row of xyz4, eight rows transposed to three vectors (no scalar copies in between)
+SWARMSIM_AVX2 __attribute__((flatten)) void gatherClassifyAvx2(std::size_t m, const std::uint32_t* cand,
+                                                               const std::uint32_t* posOfId, const float* xyz4,
+                                                               std::uint32_t far, float qx, float qy, float qz,
+                                                               float threshold, float near2, float reach2,
+                                                               NearScratch& s, std::size_t counts[3]) {
+  const __m256 vx = _mm256_set1_ps(qx), vy = _mm256_set1_ps(qy), vz = _mm256_set1_ps(qz);
+  const __m256 thr = _mm256_set1_ps(threshold), vnear = _mm256_set1_ps(near2), vreach = _mm256_set1_ps(reach2);
+  const __m256 zero = _mm256_setzero_ps(), sign = _mm256_set1_ps(-0.0f);
+  std::uint32_t* con = s.conIdx.data();
+  std::uint32_t* nr = s.nearIdx.data();
+  std::uint32_t* md = s.mdeIdx.data();
+  std::uint32_t* cj = s.cj.data();
+  std::size_t nc = 0, nn = 0, nm = 0;
+  for (std::size_t e = 0; e < m; e += kLanes) {
+    std::uint32_t j[kLanes];
+    for (std::size_t l = 0; l < kLanes; ++l) j[l] = e + l < m ? posOfId[cand[e + l]] : far;  // far: in no class
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(cj + e), _mm256_loadu_si256(reinterpret_cast<const __m256i*>(j)));
+    const auto row = [xyz4](std::uint32_t i) __attribute__((always_inline)) { return _mm_loadu_ps(xyz4 + 4 * std::size_t{i}); };
+    const __m256 a0 = _mm256_insertf128_ps(_mm256_castps128_ps256(row(j[0])), row(j[4]), 1);
+    const __m256 a1 = _mm256_insertf128_ps(_mm256_castps128_ps256(row(j[1])), row(j[5]), 1);
+    const __m256 a2 = _mm256_insertf128_ps(_mm256_castps128_ps256(row(j[2])), row(j[6]), 1);
+    const __m256 a3 = _mm256_insertf128_ps(_mm256_castps128_ps256(row(j[3])), row(j[7]), 1);
+    const __m256 t0 = _mm256_unpacklo_ps(a0, a1), t1 = _mm256_unpackhi_ps(a0, a1);
+    const __m256 t2 = _mm256_unpacklo_ps(a2, a3), t3 = _mm256_unpackhi_ps(a2, a3);
+    const __m256 dx = _mm256_sub_ps(_mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(1, 0, 1, 0)), vx);
+    const __m256 dy = _mm256_sub_ps(_mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(3, 2, 3, 2)), vy);
+    const __m256 dz = _mm256_sub_ps(_mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(1, 0, 1, 0)), vz);
+    const __m256 d2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
+    _mm256_storeu_ps(s.cx.data() + e, dx);
+    _mm256_storeu_ps(s.cy.data() + e, dy);
+    _mm256_storeu_ps(s.cz.data() + e, dz);
+    _mm256_storeu_ps(s.cd2.data() + e, d2);
+    const __m256 man = _mm256_add_ps(_mm256_add_ps(_mm256_andnot_ps(sign, dx), _mm256_andnot_ps(sign, dy)),
+                                     _mm256_andnot_ps(sign, dz));
+    const auto base = static_cast<std::uint32_t>(e);
+    const auto inCon = static_cast<unsigned>(
+        _mm256_movemask_ps(_mm256_and_ps(_mm256_cmp_ps(man, thr, _CMP_LT_OQ), _mm256_cmp_ps(d2, zero, _CMP_GT_OQ))));
+    const auto inNear = static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(d2, vnear, _CMP_LE_OQ)));
+    const auto inReach = static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(d2, vreach, _CMP_LE_OQ)));
+    nc += packLaneIndices(base, inCon, con + nc);
+    nn += packLaneIndices(base, inNear, nr + nn);
+    nm += packLaneIndices(base, inReach, md + nm);
+  }
+  counts[0] = nc;
+  counts[1] = nn;
+  counts[2] = nm;
+}
 __attribute__((flatten)) void constraintSse(const NearScratch& s, std::size_t m, float t, float c, float o[3][kLanes],
                                             int& n) {
   constraintLanes<SseLanes>(s, m, t, c, o, n);
@@ -204,6 +253,26 @@ void classifyCandidates(std::size_t m, const Vec3& q, float threshold, float nea
   (void)lanes;
   classifyLanes<ScalarLanes, false>(mp, q.x(), q.y(), q.z(), threshold, near2, reach2, s, counts);
 #endif
+}
+
+void gatherClassify(std::size_t m, const std::uint32_t* cand, const std::uint32_t* posOfId, const float* xyz4,
+                    std::uint32_t far, const Vec3& q, float threshold, float near2, float reach2, NearScratch& s,
+                    LaneSet lanes, std::size_t counts[3]) {
+  s.reserveCandidates(padded(m));
+#if SWARMSIM_X86_LANES
+  if (lanes == LaneSet::kAvx2 || lanes == LaneSet::kAvx512) {
+    gatherClassifyAvx2(m, cand, posOfId, xyz4, far, q.x(), q.y(), q.z(), threshold, near2, reach2, s, counts);
+    return;
+  }
+#endif
+  for (std::size_t e = 0; e < m; ++e) {
+    const std::uint32_t j = posOfId[cand[e]];
+    s.cj[e] = j;
+    s.cx[e] = xyz4[4 * std::size_t{j}];
+    s.cy[e] = xyz4[4 * std::size_t{j} + 1];
+    s.cz[e] = xyz4[4 * std::size_t{j} + 2];
+  }
+  classifyCandidates(m, q, threshold, near2, reach2, s, lanes, counts);
 }
 
 Vec3 zonalForce(std::size_t m, const ZoneLanes& z, NearScratch& s, bool avx) {

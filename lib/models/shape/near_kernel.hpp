@@ -18,7 +18,7 @@ namespace swarmsim {
 // `avx`: use the AVX lanes (useAvx(), asked once per step: it reads the environment)
 
 // per-thread scratch of the kernels (grows rarely, never shrinks)
-struct NearScratch {
+struct alignas(64) NearScratch {
   std::vector<float> dx, dy, dz, d2, ux, uy, uz;
   std::vector<std::uint64_t> keys;
   // one insect's candidates (the shape model's near lists): offsets, squared distances, sorted positions,
@@ -45,6 +45,13 @@ struct NearScratch {
 // instruction set (laneSet(); every one gives the same result).
 void classifyCandidates(std::size_t m, const Vec3& q, float threshold, float near2, float reach2, NearScratch& scratch,
                         LaneSet lanes, std::size_t counts[3]);
+
+// classifyCandidates of the candidates with ids cand[0, m): candidate e's sorted position posOfId[cand[e]]
+// goes to scratch.cj[e], its position is row j of xyz4 (x, y, z and a fourth float per sorted position),
+// and row `far` holds a point far from everything (the padding of the last lanes)
+void gatherClassify(std::size_t m, const std::uint32_t* cand, const std::uint32_t* posOfId, const float* xyz4,
+                    std::uint32_t far, const Vec3& q, float threshold, float near2, float reach2, NearScratch& s,
+                    LaneSet lanes, std::size_t counts[3]);
 
 // F_con's sum (eq. 5) over scratch.dx/dy/dz/d2[0, m): Σ d̂ exp(−M² inv2s2) over the entries with 0 < |d| and
 // Manhattan length M < threshold, d = p_j − q (the caller negates and scales it), and how many there were.

@@ -43,6 +43,67 @@ inline void scanLanes(const UniformGrid& grid, std::uint32_t k, float qx, float 
 }
 
 #if SWARMSIM_X86_LANES
+// scanLanes without a branch per hit or a scalar tail: each row's last lanes by masked loads, the hits' ids
+// packed by a table permute (kLanePack), the insect itself masked out. The same ids in the same order.
+SWARMSIM_AVX2 __attribute__((flatten)) void scanAvx2(const UniformGrid& grid, std::uint32_t k, float qx, float qy,
+                                                     float qz, float r, const std::uint32_t* idOf,
+                                                     std::vector<std::uint32_t>& out) {
+  int lo[3], hi[3];
+  grid.cellRange(qx, qy, qz, r, lo, hi);
+  const auto nx = static_cast<std::size_t>(grid.dim(0)), ny = static_cast<std::size_t>(grid.dim(1));
+  const auto rowStart = [&](int cz, int cy) {
+    return (static_cast<std::size_t>(cz) * ny + static_cast<std::size_t>(cy)) * nx;
+  };
+  // room for every point of the rows, and the eight lanes a pack writes
+  std::size_t room = 8;
+  for (int cz = lo[2]; cz <= hi[2]; ++cz) {
+    for (int cy = lo[1]; cy <= hi[1]; ++cy) {
+      const std::size_t row = rowStart(cz, cy);
+      room += grid.cellEnd(row + static_cast<std::size_t>(hi[0])) - grid.cellBegin(row + static_cast<std::size_t>(lo[0]));
+    }
+  }
+  out.resize(room);
+  std::uint32_t* dst = out.data();
+  std::size_t n = 0;
+  const float* sx = grid.sortedX().data();
+  const float* sy = grid.sortedY().data();
+  const float* sz = grid.sortedZ().data();
+  const __m256 vx = _mm256_set1_ps(qx), vy = _mm256_set1_ps(qy), vz = _mm256_set1_ps(qz), vr2 = _mm256_set1_ps(r * r);
+  const __m256i laneIndex = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  for (int cz = lo[2]; cz <= hi[2]; ++cz) {
+    for (int cy = lo[1]; cy <= hi[1]; ++cy) {
+      const std::size_t row = rowStart(cz, cy);
+      std::uint32_t j = grid.cellBegin(row + static_cast<std::size_t>(lo[0]));
+      const std::uint32_t end = grid.cellEnd(row + static_cast<std::size_t>(hi[0]));
+      for (; j < end; j += 8) {
+        __m256 px, py, pz;
+        __m256i ids;
+        unsigned valid = 0xffu;
+        if (end - j >= 8) {
+          px = _mm256_loadu_ps(sx + j);
+          py = _mm256_loadu_ps(sy + j);
+          pz = _mm256_loadu_ps(sz + j);
+          ids = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(idOf + j));
+        } else {  // the row's last lanes: nothing read past its end
+          const __m256i in = _mm256_cmpgt_epi32(_mm256_set1_epi32(static_cast<int>(end - j)), laneIndex);
+          valid = (1u << (end - j)) - 1u;
+          px = _mm256_maskload_ps(sx + j, in);
+          py = _mm256_maskload_ps(sy + j, in);
+          pz = _mm256_maskload_ps(sz + j, in);
+          ids = _mm256_maskload_epi32(reinterpret_cast<const int*>(idOf + j), in);
+        }
+        const __m256 dx = _mm256_sub_ps(px, vx), dy = _mm256_sub_ps(py, vy), dz = _mm256_sub_ps(pz, vz);
+        const __m256 d2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
+        unsigned hit = static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(d2, vr2, _CMP_LE_OQ))) & valid;
+        if (k - j < 8u) hit &= ~(1u << (k - j));  // not the insect itself
+        const __m256i pick = _mm256_load_si256(reinterpret_cast<const __m256i*>(kLanePack.lanes[hit]));
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(dst + n), _mm256_permutevar8x32_epi32(ids, pick));
+        n += static_cast<std::size_t>(__builtin_popcount(hit));
+      }
+    }
+  }
+  out.resize(n);
+}
 __attribute__((flatten)) void scanSse(const UniformGrid& g, std::uint32_t k, float x, float y, float z, float r,
                                       const std::uint32_t* idOf, std::vector<std::uint32_t>& out) {
   scanLanes<SseLanes>(g, k, x, y, z, r, idOf, out);
@@ -88,15 +149,25 @@ const std::uint32_t* NearLists::keep(std::uint32_t from, std::uint32_t k, std::s
 }
 
 const std::uint32_t* NearLists::build(std::uint32_t k, float r, const UniformGrid& grid, const std::uint32_t* idOf,
-                                      std::vector<std::uint32_t>& scratch, std::size_t& m, bool avx) {
+                                      std::vector<std::uint32_t>& scratch, std::size_t& m, LaneSet lanes) {
   rebuilt_.fetch_add(1, std::memory_order_relaxed);
   const float qx = grid.sortedX()[k], qy = grid.sortedY()[k], qz = grid.sortedZ()[k];
   scratch.clear();
   if (grid.size() > 0) {
 #if SWARMSIM_X86_LANES
-    avx ? scanAvx(grid, k, qx, qy, qz, r, idOf, scratch) : scanSse(grid, k, qx, qy, qz, r, idOf, scratch);
+    switch (lanes) {
+      case LaneSet::kAvx2:
+      case LaneSet::kAvx512:
+        scanAvx2(grid, k, qx, qy, qz, r, idOf, scratch);
+        break;
+      case LaneSet::kAvx:
+        scanAvx(grid, k, qx, qy, qz, r, idOf, scratch);
+        break;
+      default:
+        scanSse(grid, k, qx, qy, qz, r, idOf, scratch);
+    }
 #else
-    (void)avx;
+    (void)lanes;
     scanLanes<ScalarLanes>(grid, k, qx, qy, qz, r, idOf, scratch);
 #endif
   }

@@ -21,6 +21,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/lanes.hpp"
 #include "spatial/uniform_grid.hpp"
 
 namespace swarmsim {
@@ -50,10 +51,10 @@ class NearLists {
   // keep the list of slot `from` for sorted insect k: its ids (ascending, the insect itself left out)
   const std::uint32_t* keep(std::uint32_t from, std::uint32_t k, std::size_t& m);
   // a new list for sorted insect k: every other grid point within r (its coverage now), ascending by id;
-  // kept when it fits (`scratch` holds it otherwise). `idOf` maps a sorted position to its id; `avx`: scan
-  // with the AVX lanes (useAvx(), core/lanes.hpp)
+  // kept when it fits (`scratch` holds it otherwise). `idOf` maps a sorted position to its id; `lanes`: the
+  // instruction set to scan with (laneSet(), core/lanes.hpp; every one gives the same list)
   const std::uint32_t* build(std::uint32_t k, float r, const UniformGrid& grid, const std::uint32_t* idOf,
-                             std::vector<std::uint32_t>& scratch, std::size_t& m, bool avx);
+                             std::vector<std::uint32_t>& scratch, std::size_t& m, LaneSet lanes);
   // the largest move of last step (m)
   double lastMove() const { return lastMove_; }
   float skin() const { return skin_; }

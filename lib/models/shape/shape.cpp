@@ -242,11 +242,30 @@ class ShapeModel final : public Model {
     const bool assigned = assign_.size() == n;
     err_.resize(n);
     speed_.resize(n);
+    // positions and velocities by sorted position also as rows of four floats (one cache line per
+    // neighbour where the near sums look them up), and a last position row far from everything
+    xyz4_.resize(4 * (n + 1));
+    vel4_.resize(4 * n);
+    const float* gx = grid_.sortedX().data();
+    const float* gy = grid_.sortedY().data();
+    const float* gz = grid_.sortedZ().data();
+    for (std::size_t a = 0; a < 3; ++a) xyz4_[4 * n + a] = 3.0e38f;
+    xyz4_[4 * n + 3] = 0.0f;
     parallelFor(n, [&](std::size_t k) {
       const std::uint32_t i = order[k];
       vx_[k] = s.vx[i];
       vy_[k] = s.vy[i];
       vz_[k] = s.vz[i];
+      float* row = xyz4_.data() + 4 * k;
+      row[0] = gx[k];
+      row[1] = gy[k];
+      row[2] = gz[k];
+      row[3] = 0.0f;
+      float* vel = vel4_.data() + 4 * k;
+      vel[0] = vx_[k];
+      vel[1] = vy_[k];
+      vel[2] = vz_[k];
+      vel[3] = 0.0f;
       ids_[k] = s.id[i];
       // the insect's sample: where last step left it when the state is as last step wrote it (it is, but
       // for the step after a resume), else through the id (a random access)
@@ -292,6 +311,15 @@ class ShapeModel final : public Model {
     parallelChunks(n, [&](std::size_t first, std::size_t last, int) {
       noise_.evaluateBatch(sx + first, sy + first, sz + first, last - first, cnx_.data() + first, cny_.data() + first,
                            cnz_.data() + first);
+      // each insect's sample point now (random accesses, together: their cache misses overlap)
+      if (shaped) {
+        for (std::size_t k = first; k < last; ++k) {
+          const Vec3 target = targetOf(sample_[k], keyA, keyB, f, rot, shift, pivot);
+          tgx_[k] = target.x();
+          tgy_[k] = target.y();
+          tgz_[k] = target.z();
+        }
+      }
     });
 
     const ZonalSum zones(static_cast<float>(p_.rRep), static_cast<float>(p_.rAli), rAtt, static_cast<float>(p_.wRep),
@@ -308,7 +336,8 @@ class ShapeModel final : public Model {
       lists_.reset(n, listCapacity(K), static_cast<float>(p_.listSkin));
       reach_.resize(n);
       posOfId_.resize(n);
-      parallelFor(n, [&](std::size_t k) { posOfId_[ids_[k]] = static_cast<std::uint32_t>(k); });
+      // on one thread: random writes from several into one array would share its cache lines
+      for (std::size_t k = 0; k < n; ++k) posOfId_[ids_[k]] = static_cast<std::uint32_t>(k);
     }
     const ZoneLanes zoneLanes = {zones.rRep2, zones.rAli2, zones.rAtt2, {zones.w[0], zones.w[1], zones.w[2]}};
     const LaneSet lanes = laneSet();
@@ -357,22 +386,16 @@ class ShapeModel final : public Model {
       } else {
         cover = std::min(rAtt, (1.0f + lists_.skin()) * std::max(need, lastReach));
         cover = std::max({cover, kh, mdReach});
-        cand = lists_.build(static_cast<std::uint32_t>(k), cover, grid_, ids_.data(), ns.ids, m, avx);
+        cand = lists_.build(static_cast<std::uint32_t>(k), cover, grid_, ids_.data(), ns.ids, m, lanes);
       }
       std::size_t counts[3];
       std::size_t mk = 0;
       for (;;) {
-        ns.reserveCandidates(m);
-        for (std::size_t e = 0; e < m; ++e) {  // their positions (the one random access of each)
-          const std::uint32_t j = posOfId_[cand[e]];
-          ns.cj[e] = j;
-          ns.cx[e] = sx[j];
-          ns.cy[e] = sy[j];
-          ns.cz[e] = sz[j];
-        }
-        // offsets, squared distances, and who counts for F_con, F_int (within the first radius) and MDE
+        // their sorted positions and positions (the one random access of each), offsets, squared distances,
+        // and who counts for F_con, F_int (within the first radius) and MDE
         const float reach = std::min({cover, rAtt, guess});
-        classifyCandidates(m, Vec3(qx, qy, qz), kh, reach * reach, mdReach2, ns, lanes, counts);
+        gatherClassify(m, cand, posOfId_.data(), xyz4_.data(), static_cast<std::uint32_t>(n), Vec3(qx, qy, qz), kh,
+                       reach * reach, mdReach2, ns, lanes, counts);
         mk = counts[1];
         if (mk < K && reach < std::min(cover, rAtt)) {  // fewer than K within the first radius: all of cover
           const float c2 = std::min(cover, rAtt) * std::min(cover, rAtt);
@@ -385,7 +408,7 @@ class ShapeModel final : public Model {
         if (mk >= K || cover >= rAtt) break;
         // fewer than K within the coverage, which is short of r_att: a wider list (rare)
         cover = std::min(rAtt, 1.5f * cover);
-        cand = lists_.build(static_cast<std::uint32_t>(k), cover, grid_, ids_.data(), ns.ids, m, avx);
+        cand = lists_.build(static_cast<std::uint32_t>(k), cover, grid_, ids_.data(), ns.ids, m, lanes);
       }
       if (shaped) {  // F_con over its entries, packed in id order
         const std::size_t mc = counts[0];
@@ -413,16 +436,18 @@ class ShapeModel final : public Model {
       // F_int over the K nearest within r_att, in id order
       mk = keepSmallest(keys, mk, K);
       float far2 = 0.0f;
+      const float vkx = vx_[k], vky = vy_[k], vkz = vz_[k];
       for (std::size_t q = 0; q < mk; ++q) {
-        const std::uint32_t e = keyIndex(keys[q]), j = ns.cj[e];
+        const std::uint32_t e = keyIndex(keys[q]);
+        const float* vj = vel4_.data() + 4 * std::size_t{ns.cj[e]};
         far2 = std::max(far2, ns.cd2[e]);
         ns.dx[q] = ns.cx[e];
         ns.dy[q] = ns.cy[e];
         ns.dz[q] = ns.cz[e];
         ns.d2[q] = ns.cd2[e];
-        ns.ux[q] = vx_[j] - vx_[k];
-        ns.uy[q] = vy_[j] - vy_[k];
-        ns.uz[q] = vz_[j] - vz_[k];
+        ns.ux[q] = vj[0] - vkx;
+        ns.uy[q] = vj[1] - vky;
+        ns.uz[q] = vj[2] - vkz;
       }
       reach_[k] = mk == K ? std::sqrt(far2) : rAtt;
       return zonalForce(mk, zoneLanes, ns, avx);
@@ -437,12 +462,8 @@ class ShapeModel final : public Model {
       if (shaped) {
         // F_con (eq. 5): spread from the insects within the Manhattan threshold, Gaussian fall-off
         external += fCon;
-        // F_dis (eq. 6-7): toward the insect's own sample point
-        const Vec3 target = targetOf(sample_[k], keyA, keyB, f, rot, shift, pivot);
-        tgx_[k] = target.x();  // kept for the shape error after the move
-        tgy_[k] = target.y();
-        tgz_[k] = target.z();
-        external += distanceForce(x, target, wDis, invRange);
+        // F_dis (eq. 6-7): toward the insect's own sample point (also for the shape error after the move)
+        external += distanceForce(x, Vec3(tgx_[k], tgy_[k], tgz_[k]), wDis, invRange);
       }
       const Vec3 force = alpha * internal + (1.0f - alpha) * external;
       // Newton's second law, unit mass; the fly's top speed
@@ -467,7 +488,9 @@ class ShapeModel final : public Model {
     };
 
     if (nearest) {
-      parallelForDynamic(n, 256, [&](std::size_t k) {
+      // each thread takes one contiguous range of insects, the same as in the loops before and after this one:
+      // most of what it reads it wrote itself (another core's cache lines cost more than the uneven work)
+      parallelFor(n, [&](std::size_t k) {
         NearScratch& ns = scratch_[static_cast<std::size_t>(threadIndex())];
         Vec3 fCon = Vec3::Zero();
         const Vec3 fInt = nearForces(k, ns, fCon);
@@ -717,6 +740,7 @@ class ShapeModel final : public Model {
   std::vector<float> vx_, vy_, vz_, fx_, fy_, fz_, tx_, ty_, tz_, nvx_, nvy_, nvz_;
   std::vector<float> tgx_, tgy_, tgz_;  // each insect's sample point this step
   std::vector<float> cnx_, cny_, cnz_;  // each insect's curl noise this step
+  std::vector<float> xyz4_, vel4_;      // positions (and a far row at n) and velocities as rows of four
   std::vector<std::uint32_t> ids_, lastIds_;        // ids by sorted position, this step's and last step's
   std::vector<std::uint32_t> sample_, lastSample_;  // the insects' samples (assign_) by sorted position, alike
   std::vector<NearScratch> scratch_;               // per thread: the near-field kernels' scratch
