@@ -133,11 +133,11 @@ SWARMSIM_AVX2 __attribute__((flatten)) void classifyAvx2(std::size_t m, float qx
                                                          float n2, float r2, NearScratch& s, std::size_t c[3]) {
   classifyLanes<AvxLanes, true>(m, qx, qy, qz, t, n2, r2, s, c);
 }
-// classifyLanes<AvxLanes, true> of candidates given by id: each one's sorted position through posOfId, its
-// position one 16-byte row of xyz4, eight rows transposed to three vectors (no scalar copies in between)
+// classifyLanes<AvxLanes, true> of candidates given by sorted position: each one's position one 16-byte row
+// of xyz4, eight rows transposed to three vectors (no scalar copies in between)
 SWARMSIM_AVX2 __attribute__((flatten)) void gatherClassifyAvx2(std::size_t m, const std::uint32_t* cand,
-                                                               const std::uint32_t* posOfId, const float* xyz4,
-                                                               std::uint32_t far, float qx, float qy, float qz,
+                                                               const float* xyz4, std::uint32_t far, float qx,
+                                                               float qy, float qz,
                                                                float threshold, float near2, float reach2,
                                                                NearScratch& s, std::size_t counts[3]) {
   const __m256 vx = _mm256_set1_ps(qx), vy = _mm256_set1_ps(qy), vz = _mm256_set1_ps(qz);
@@ -150,7 +150,7 @@ SWARMSIM_AVX2 __attribute__((flatten)) void gatherClassifyAvx2(std::size_t m, co
   std::size_t nc = 0, nn = 0, nm = 0;
   for (std::size_t e = 0; e < m; e += kLanes) {
     std::uint32_t j[kLanes];
-    for (std::size_t l = 0; l < kLanes; ++l) j[l] = e + l < m ? posOfId[cand[e + l]] : far;  // far: in no class
+    for (std::size_t l = 0; l < kLanes; ++l) j[l] = e + l < m ? cand[e + l] : far;  // far: in no class
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(cj + e), _mm256_loadu_si256(reinterpret_cast<const __m256i*>(j)));
     const auto row = [xyz4](std::uint32_t i) __attribute__((always_inline)) { return _mm_loadu_ps(xyz4 + 4 * std::size_t{i}); };
     const __m256 a0 = _mm256_insertf128_ps(_mm256_castps128_ps256(row(j[0])), row(j[4]), 1);
@@ -255,18 +255,19 @@ void classifyCandidates(std::size_t m, const Vec3& q, float threshold, float nea
 #endif
 }
 
-void gatherClassify(std::size_t m, const std::uint32_t* cand, const std::uint32_t* posOfId, const float* xyz4,
-                    std::uint32_t far, const Vec3& q, float threshold, float near2, float reach2, NearScratch& s,
-                    LaneSet lanes, std::size_t counts[3]) {
+void gatherClassify(std::size_t m, const std::uint32_t* cand, const float* xyz4, std::uint32_t far, const Vec3& q,
+                    float threshold, float near2, float reach2, NearScratch& s, LaneSet lanes, std::size_t counts[3]) {
   s.reserveCandidates(padded(m));
 #if SWARMSIM_X86_LANES
   if (lanes == LaneSet::kAvx2 || lanes == LaneSet::kAvx512) {
-    gatherClassifyAvx2(m, cand, posOfId, xyz4, far, q.x(), q.y(), q.z(), threshold, near2, reach2, s, counts);
+    gatherClassifyAvx2(m, cand, xyz4, far, q.x(), q.y(), q.z(), threshold, near2, reach2, s, counts);
     return;
   }
+#else
+  (void)far;
 #endif
   for (std::size_t e = 0; e < m; ++e) {
-    const std::uint32_t j = posOfId[cand[e]];
+    const std::uint32_t j = cand[e];
     s.cj[e] = j;
     s.cx[e] = xyz4[4 * std::size_t{j}];
     s.cy[e] = xyz4[4 * std::size_t{j} + 1];

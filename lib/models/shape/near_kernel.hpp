@@ -26,6 +26,7 @@ struct alignas(64) NearScratch {
   std::vector<float> cx, cy, cz, cd2;
   std::vector<std::uint32_t> cj, ids;
   std::vector<std::uint32_t> conIdx, nearIdx, mdeIdx;  // classifyCandidates' output
+  std::vector<std::uint64_t> sortKeys;                 // sortById's (near_list.hpp)
   void reserve(std::size_t n);
   // room for n candidates (padded to whole lanes) in every array
   void reserveCandidates(std::size_t n) {
@@ -46,12 +47,11 @@ struct alignas(64) NearScratch {
 void classifyCandidates(std::size_t m, const Vec3& q, float threshold, float near2, float reach2, NearScratch& scratch,
                         LaneSet lanes, std::size_t counts[3]);
 
-// classifyCandidates of the candidates with ids cand[0, m): candidate e's sorted position posOfId[cand[e]]
-// goes to scratch.cj[e], its position is row j of xyz4 (x, y, z and a fourth float per sorted position),
-// and row `far` holds a point far from everything (the padding of the last lanes)
-void gatherClassify(std::size_t m, const std::uint32_t* cand, const std::uint32_t* posOfId, const float* xyz4,
-                    std::uint32_t far, const Vec3& q, float threshold, float near2, float reach2, NearScratch& s,
-                    LaneSet lanes, std::size_t counts[3]);
+// classifyCandidates of the candidates at sorted positions cand[0, m), which go to scratch.cj: candidate
+// e's position is row cand[e] of xyz4 (x, y, z and a fourth float per sorted position), and row `far` holds
+// a point far from everything (the padding of the last lanes)
+void gatherClassify(std::size_t m, const std::uint32_t* cand, const float* xyz4, std::uint32_t far, const Vec3& q,
+                    float threshold, float near2, float reach2, NearScratch& s, LaneSet lanes, std::size_t counts[3]);
 
 // F_con's sum (eq. 5) over scratch.dx/dy/dz/d2[0, m): Σ d̂ exp(−M² inv2s2) over the entries with 0 < |d| and
 // Manhattan length M < threshold, d = p_j − q (the caller negates and scales it), and how many there were.

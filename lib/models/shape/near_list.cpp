@@ -8,10 +8,10 @@ namespace swarmsim {
 
 namespace {
 
-// the ids of the grid points j != k within r of q, eight candidates at a time over each cell row's run
+// the grid points (sorted positions) j != k within r of q, eight candidates at a time over each cell row's run
 template <typename L>
 inline void scanLanes(const UniformGrid& grid, std::uint32_t k, float qx, float qy, float qz, float r,
-                      const std::uint32_t* idOf, std::vector<std::uint32_t>& out) {
+                      std::vector<std::uint32_t>& out) {
   using V = typename L::V;
   int lo[3], hi[3];
   grid.cellRange(qx, qy, qz, r, lo, hi);
@@ -31,23 +31,22 @@ inline void scanLanes(const UniformGrid& grid, std::uint32_t k, float qx, float 
         const V d2 = L::add(L::add(L::mul(dx, dx), L::mul(dy, dy)), L::mul(dz, dz));
         for (unsigned bits = L::mask(L::le(d2, vr2)); bits; bits &= bits - 1u) {
           const std::uint32_t p = j + static_cast<std::uint32_t>(__builtin_ctz(bits));
-          if (p != k) out.push_back(idOf[p]);
+          if (p != k) out.push_back(p);
         }
       }
       for (; j < end; ++j) {
         const float dx = sx[j] - qx, dy = sy[j] - qy, dz = sz[j] - qz;
-        if (dx * dx + dy * dy + dz * dz <= r2 && j != k) out.push_back(idOf[j]);
+        if (dx * dx + dy * dy + dz * dz <= r2 && j != k) out.push_back(j);
       }
     }
   }
 }
 
 #if SWARMSIM_X86_LANES
-// scanLanes without a branch per hit or a scalar tail: each row's last lanes by masked loads, the hits' ids
-// packed by a table permute (kLanePack), the insect itself masked out. The same ids in the same order.
+// scanLanes without a branch per hit or a scalar tail: each row's last lanes by masked loads, the hits packed
+// by a table permute (kLanePack), the insect itself masked out. The same points in the same order.
 SWARMSIM_AVX2 __attribute__((flatten)) void scanAvx2(const UniformGrid& grid, std::uint32_t k, float qx, float qy,
-                                                     float qz, float r, const std::uint32_t* idOf,
-                                                     std::vector<std::uint32_t>& out) {
+                                                     float qz, float r, std::vector<std::uint32_t>& out) {
   int lo[3], hi[3];
   grid.cellRange(qx, qy, qz, r, lo, hi);
   const auto nx = static_cast<std::size_t>(grid.dim(0)), ny = static_cast<std::size_t>(grid.dim(1));
@@ -77,20 +76,18 @@ SWARMSIM_AVX2 __attribute__((flatten)) void scanAvx2(const UniformGrid& grid, st
       const std::uint32_t end = grid.cellEnd(row + static_cast<std::size_t>(hi[0]));
       for (; j < end; j += 8) {
         __m256 px, py, pz;
-        __m256i ids;
+        const __m256i ids = _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(j)), laneIndex);
         unsigned valid = 0xffu;
         if (end - j >= 8) {
           px = _mm256_loadu_ps(sx + j);
           py = _mm256_loadu_ps(sy + j);
           pz = _mm256_loadu_ps(sz + j);
-          ids = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(idOf + j));
         } else {  // the row's last lanes: nothing read past its end
           const __m256i in = _mm256_cmpgt_epi32(_mm256_set1_epi32(static_cast<int>(end - j)), laneIndex);
           valid = (1u << (end - j)) - 1u;
           px = _mm256_maskload_ps(sx + j, in);
           py = _mm256_maskload_ps(sy + j, in);
           pz = _mm256_maskload_ps(sz + j, in);
-          ids = _mm256_maskload_epi32(reinterpret_cast<const int*>(idOf + j), in);
         }
         const __m256 dx = _mm256_sub_ps(px, vx), dy = _mm256_sub_ps(py, vy), dz = _mm256_sub_ps(pz, vz);
         const __m256 d2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
@@ -105,19 +102,26 @@ SWARMSIM_AVX2 __attribute__((flatten)) void scanAvx2(const UniformGrid& grid, st
   out.resize(n);
 }
 __attribute__((flatten)) void scanSse(const UniformGrid& g, std::uint32_t k, float x, float y, float z, float r,
-                                      const std::uint32_t* idOf, std::vector<std::uint32_t>& out) {
-  scanLanes<SseLanes>(g, k, x, y, z, r, idOf, out);
+                                      std::vector<std::uint32_t>& out) {
+  scanLanes<SseLanes>(g, k, x, y, z, r, out);
 }
 SWARMSIM_AVX __attribute__((flatten)) void scanAvx(const UniformGrid& g, std::uint32_t k, float x, float y, float z,
-                                                   float r, const std::uint32_t* idOf, std::vector<std::uint32_t>& out) {
-  scanLanes<AvxLanes>(g, k, x, y, z, r, idOf, out);
+                                                   float r, std::vector<std::uint32_t>& out) {
+  scanLanes<AvxLanes>(g, k, x, y, z, r, out);
 }
 #endif
 
 }  // namespace
 
+void sortById(std::vector<std::uint32_t>& pos, const std::uint32_t* idOf, std::vector<std::uint64_t>& keys) {
+  keys.resize(pos.size());
+  for (std::size_t e = 0; e < pos.size(); ++e) keys[e] = (std::uint64_t{idOf[pos[e]]} << 32) | pos[e];
+  std::sort(keys.begin(), keys.end());
+  for (std::size_t e = 0; e < pos.size(); ++e) pos[e] = static_cast<std::uint32_t>(keys[e]);
+}
+
 void NearLists::Slots::assign(std::size_t n, std::size_t capacity) {
-  ids.assign(n * capacity, 0);
+  pos.assign(n * capacity, 0);
   len.assign(n, kNone);
   radius.assign(n, 0.0f);
   movedAt.assign(n, 0.0);
@@ -137,11 +141,12 @@ void NearLists::clear() {
   std::fill(next_.len.begin(), next_.len.end(), kNone);
 }
 
-const std::uint32_t* NearLists::keep(std::uint32_t from, std::uint32_t k, std::size_t& m) {
+const std::uint32_t* NearLists::keep(std::uint32_t from, std::uint32_t k, const std::uint32_t* newPos,
+                                     std::size_t& m) {
   m = last_.len[from];
-  const std::uint32_t* old = last_.ids.data() + static_cast<std::size_t>(from) * capacity_;
-  std::uint32_t* list = next_.ids.data() + static_cast<std::size_t>(k) * capacity_;
-  for (std::size_t e = 0; e < m; ++e) list[e] = old[e];  // short: a loop, not a library call
+  const std::uint32_t* old = last_.pos.data() + static_cast<std::size_t>(from) * capacity_;
+  std::uint32_t* list = next_.pos.data() + static_cast<std::size_t>(k) * capacity_;
+  for (std::size_t e = 0; e < m; ++e) list[e] = newPos[old[e]];  // near k: mostly in this core's cache
   next_.len[k] = static_cast<std::uint32_t>(m);
   next_.radius[k] = last_.radius[from];
   next_.movedAt[k] = last_.movedAt[from];
@@ -149,7 +154,8 @@ const std::uint32_t* NearLists::keep(std::uint32_t from, std::uint32_t k, std::s
 }
 
 const std::uint32_t* NearLists::build(std::uint32_t k, float r, const UniformGrid& grid, const std::uint32_t* idOf,
-                                      std::vector<std::uint32_t>& scratch, std::size_t& m, LaneSet lanes) {
+                                      std::vector<std::uint32_t>& scratch, std::vector<std::uint64_t>& keys,
+                                      std::size_t& m, LaneSet lanes) {
   rebuilt_.fetch_add(1, std::memory_order_relaxed);
   const float qx = grid.sortedX()[k], qy = grid.sortedY()[k], qz = grid.sortedZ()[k];
   scratch.clear();
@@ -158,26 +164,26 @@ const std::uint32_t* NearLists::build(std::uint32_t k, float r, const UniformGri
     switch (lanes) {
       case LaneSet::kAvx2:
       case LaneSet::kAvx512:
-        scanAvx2(grid, k, qx, qy, qz, r, idOf, scratch);
+        scanAvx2(grid, k, qx, qy, qz, r, scratch);
         break;
       case LaneSet::kAvx:
-        scanAvx(grid, k, qx, qy, qz, r, idOf, scratch);
+        scanAvx(grid, k, qx, qy, qz, r, scratch);
         break;
       default:
-        scanSse(grid, k, qx, qy, qz, r, idOf, scratch);
+        scanSse(grid, k, qx, qy, qz, r, scratch);
     }
 #else
     (void)lanes;
-    scanLanes<ScalarLanes>(grid, k, qx, qy, qz, r, idOf, scratch);
+    scanLanes<ScalarLanes>(grid, k, qx, qy, qz, r, scratch);
 #endif
   }
-  std::sort(scratch.begin(), scratch.end());
+  sortById(scratch, idOf, keys);
   m = scratch.size();
   if (m > capacity_) {
     next_.len[k] = kNone;
     return scratch.data();
   }
-  std::uint32_t* list = next_.ids.data() + static_cast<std::size_t>(k) * capacity_;
+  std::uint32_t* list = next_.pos.data() + static_cast<std::size_t>(k) * capacity_;
   std::copy(scratch.begin(), scratch.end(), list);
   next_.len[k] = static_cast<std::uint32_t>(m);
   next_.radius[k] = r;

@@ -2,8 +2,12 @@
 // Per-insect neighbour lists kept across steps (Verlet lists) for the shape
 // model's near-field sums (F_con, F_int over the K nearest, MDE).
 //
-// Insect i's list holds the ids of every other insect that was within its
-// radius R_i when the list was built, ascending by id. A step asks for every
+// Insect i's list holds every other insect that was within its radius R_i
+// when the list was built, in ascending order of their ids, each as its
+// sorted position in this step's grid: a kept list is translated every step
+// from last step's positions (the state's order) to this step's, which lie
+// near the insect's own, where an id would need a look-up anywhere in an
+// array indexed by id. A step asks for every
 // insect within some radius ρ_i now. Between the build and now no insect moved
 // farther than ΔS (the sum of each step's largest move, advance()), so any
 // insect within ρ_i now was within ρ_i + 2 ΔS then: the list still covers ρ_i
@@ -25,6 +29,9 @@
 #include "spatial/uniform_grid.hpp"
 
 namespace swarmsim {
+
+// sorted positions `pos` put in ascending order of their ids (idOf: sorted position -> id); keys: scratch
+void sortById(std::vector<std::uint32_t>& pos, const std::uint32_t* idOf, std::vector<std::uint64_t>& keys);
 
 class NearLists {
  public:
@@ -48,21 +55,25 @@ class NearLists {
                                1e-6) /
                               (1.0 + 1e-5));
   }
-  // keep the list of slot `from` for sorted insect k: its ids (ascending, the insect itself left out)
-  const std::uint32_t* keep(std::uint32_t from, std::uint32_t k, std::size_t& m);
-  // a new list for sorted insect k: every other grid point within r (its coverage now), ascending by id;
-  // kept when it fits (`scratch` holds it otherwise). `idOf` maps a sorted position to its id; `lanes`: the
-  // instruction set to scan with (laneSet(), core/lanes.hpp; every one gives the same list)
+  // keep the list of slot `from` for sorted insect k: its sorted positions now (newPos maps last step's
+  // sorted position, the state index, to this step's), by ascending id, the insect itself left out
+  const std::uint32_t* keep(std::uint32_t from, std::uint32_t k, const std::uint32_t* newPos, std::size_t& m);
+  // a new list for sorted insect k: every other grid point within r (its coverage now), by ascending id;
+  // kept when it fits (`scratch` holds it otherwise; `keys` is scratch for the sort). `idOf` maps a sorted
+  // position to its id; `lanes`: the instruction set to scan with (laneSet(), core/lanes.hpp; every one
+  // gives the same list)
   const std::uint32_t* build(std::uint32_t k, float r, const UniformGrid& grid, const std::uint32_t* idOf,
-                             std::vector<std::uint32_t>& scratch, std::size_t& m, LaneSet lanes);
+                             std::vector<std::uint32_t>& scratch, std::vector<std::uint64_t>& keys, std::size_t& m,
+                             LaneSet lanes);
   // the largest move of last step (m)
   double lastMove() const { return lastMove_; }
   float skin() const { return skin_; }
 
-  // sorted insect k's list as candidates() left it this step, or nullptr when it has none (it did not fit)
+  // sorted insect k's list as keep() or build() left it this step (sorted positions by ascending id), or
+  // nullptr when it has none (it did not fit)
   const std::uint32_t* stored(std::uint32_t k, std::size_t& m) const {
     m = next_.len[k];
-    return m == kNone ? nullptr : next_.ids.data() + static_cast<std::size_t>(k) * capacity_;
+    return m == kNone ? nullptr : next_.pos.data() + static_cast<std::size_t>(k) * capacity_;
   }
   // after a step in which no insect moved farther than maxMove (m): this step's lists become last step's
   void advance(double maxMove) {
@@ -76,7 +87,7 @@ class NearLists {
 
  private:
   struct Slots {
-    std::vector<std::uint32_t> ids;   // n × capacity
+    std::vector<std::uint32_t> pos;   // n × capacity: sorted positions
     std::vector<std::uint32_t> len;   // per slot: list length, or kNone
     std::vector<float> radius;        // per slot: R_i
     std::vector<double> movedAt;      // per slot: moved_ when the list was built

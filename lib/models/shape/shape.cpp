@@ -1,6 +1,7 @@
 #include "models/shape/shape.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstring>
 #include <sstream>
@@ -245,6 +246,8 @@ class ShapeModel final : public Model {
     // positions and velocities by sorted position also as rows of four floats (one cache line per
     // neighbour where the near sums look them up), and a last position row far from everything
     xyz4_.resize(4 * (n + 1));
+    newPos_.resize(n);
+    std::atomic<bool> asLastStep{lastIds_.size() == n};  // every insect where last step wrote it
     vel4_.resize(4 * n);
     const float* gx = grid_.sortedX().data();
     const float* gy = grid_.sortedY().data();
@@ -261,6 +264,7 @@ class ShapeModel final : public Model {
       row[1] = gy[k];
       row[2] = gz[k];
       row[3] = 0.0f;
+      newPos_[i] = static_cast<std::uint32_t>(k);  // last step's sorted position (the state index) -> this step's
       float* vel = vel4_.data() + 4 * k;
       vel[0] = vx_[k];
       vel[1] = vy_[k];
@@ -269,7 +273,9 @@ class ShapeModel final : public Model {
       ids_[k] = s.id[i];
       // the insect's sample: where last step left it when the state is as last step wrote it (it is, but
       // for the step after a resume), else through the id (a random access)
-      if (assigned) sample_[k] = i < lastIds_.size() && lastIds_[i] == ids_[k] ? lastSample_[i] : assign_[ids_[k]];
+      const bool same = i < lastIds_.size() && lastIds_[i] == ids_[k];
+      if (assigned) sample_[k] = same ? lastSample_[i] : assign_[ids_[k]];
+      if (!same) asLastStep.store(false, std::memory_order_relaxed);  // rare: no contention
     });
 
     // F_int (eq. 2-3): over the nearest neighbours (below, with F_con), or over every insect within r_att
@@ -335,9 +341,9 @@ class ShapeModel final : public Model {
       if (reachLast_.size() != n) reachLast_.assign(n, cellHint_);
       lists_.reset(n, listCapacity(K), static_cast<float>(p_.listSkin));
       reach_.resize(n);
-      posOfId_.resize(n);
-      // on one thread: random writes from several into one array would share its cache lines
-      for (std::size_t k = 0; k < n; ++k) posOfId_[ids_[k]] = static_cast<std::uint32_t>(k);
+      // the lists hold last step's sorted positions, which are this step's state indices only while the state
+      // is in the order last step wrote it: else (the first step, a resume, a new target) they go
+      if (!asLastStep.load(std::memory_order_relaxed)) lists_.clear();
     }
     const ZoneLanes zoneLanes = {zones.rRep2, zones.rAli2, zones.rAtt2, {zones.w[0], zones.w[1], zones.w[2]}};
     const LaneSet lanes = laneSet();
@@ -382,11 +388,11 @@ class ShapeModel final : public Model {
       std::size_t m = 0;
       const std::uint32_t* cand = nullptr;
       if (cover >= need) {
-        cand = lists_.keep(from, static_cast<std::uint32_t>(k), m);
+        cand = lists_.keep(from, static_cast<std::uint32_t>(k), newPos_.data(), m);
       } else {
         cover = std::min(rAtt, (1.0f + lists_.skin()) * std::max(need, lastReach));
         cover = std::max({cover, kh, mdReach});
-        cand = lists_.build(static_cast<std::uint32_t>(k), cover, grid_, ids_.data(), ns.ids, m, lanes);
+        cand = lists_.build(static_cast<std::uint32_t>(k), cover, grid_, ids_.data(), ns.ids, ns.sortKeys, m, lanes);
       }
       std::size_t counts[3];
       std::size_t mk = 0;
@@ -394,8 +400,8 @@ class ShapeModel final : public Model {
         // their sorted positions and positions (the one random access of each), offsets, squared distances,
         // and who counts for F_con, F_int (within the first radius) and MDE
         const float reach = std::min({cover, rAtt, guess});
-        gatherClassify(m, cand, posOfId_.data(), xyz4_.data(), static_cast<std::uint32_t>(n), Vec3(qx, qy, qz), kh,
-                       reach * reach, mdReach2, ns, lanes, counts);
+        gatherClassify(m, cand, xyz4_.data(), static_cast<std::uint32_t>(n), Vec3(qx, qy, qz), kh, reach * reach,
+                       mdReach2, ns, lanes, counts);
         mk = counts[1];
         if (mk < K && reach < std::min(cover, rAtt)) {  // fewer than K within the first radius: all of cover
           const float c2 = std::min(cover, rAtt) * std::min(cover, rAtt);
@@ -408,7 +414,7 @@ class ShapeModel final : public Model {
         if (mk >= K || cover >= rAtt) break;
         // fewer than K within the coverage, which is short of r_att: a wider list (rare)
         cover = std::min(rAtt, 1.5f * cover);
-        cand = lists_.build(static_cast<std::uint32_t>(k), cover, grid_, ids_.data(), ns.ids, m, lanes);
+        cand = lists_.build(static_cast<std::uint32_t>(k), cover, grid_, ids_.data(), ns.ids, ns.sortKeys, m, lanes);
       }
       if (shaped) {  // F_con over its entries, packed in id order
         const std::size_t mc = counts[0];
@@ -547,17 +553,17 @@ class ShapeModel final : public Model {
         found.clear();
         grid_.forEachRun(sx[k], sy[k], sz[k], mdReach, [&](std::uint32_t b, std::uint32_t e) {
           for (std::uint32_t j = b; j < e; ++j) {
-            if (j != k && counts(j)) found.push_back(ids_[j]);
+            if (j != k && counts(j)) found.push_back(j);
           }
         });
-        std::sort(found.begin(), found.end());
+        sortById(found, ids_.data(), ns.sortKeys);
         cand = found.data();
         m = found.size();
       }
       ns.reserveCandidates(m);
       std::size_t mc = 0, nz = 0;
       for (std::size_t e = 0; e < m; ++e) {
-        const std::uint32_t j = posOfId_[cand[e]];
+        const std::uint32_t j = cand[e];
         const float px = tx_[j], py = ty_[j], pz = tz_[j];
         const float dx = px - qx, dy = py - qy, dz = pz - qz;
         const float d2 = dx * dx + dy * dy + dz * dz;
@@ -565,7 +571,7 @@ class ShapeModel final : public Model {
         ns.uy[mc] = py;
         ns.uz[mc] = pz;
         mc += static_cast<std::size_t>(d2 < md2) & static_cast<std::size_t>(d2 > 0.0f);
-        if (px == qx && py == qy && pz == qz) ns.cj[nz++] = cand[e];  // exactly coincident (rare)
+        if (px == qx && py == qy && pz == qz) ns.cj[nz++] = ids_[j];  // exactly coincident (rare)
       }
       MdePush kernel(md);
       kernel.start(qx, qy, qz);
@@ -749,7 +755,7 @@ class ShapeModel final : public Model {
   // how many there were, and the K-th one's distance (a search hint only)
   // this step's K-th distance (r_att if fewer) by sorted position, and last step's by state index
   std::vector<float> reach_, reachLast_;
-  std::vector<std::uint32_t> posOfId_;    // id -> sorted position this step
+  std::vector<std::uint32_t> newPos_;     // last step's sorted position (this step's state index) -> this step's
   NearLists lists_;                       // the near lists (near_list.hpp)
   // by sorted position: the ids of the candidates within MDE's reach (this step's positions; in id order)
   // and how many, or kMdeNone when they did not fit (MDE then takes the whole near list)
