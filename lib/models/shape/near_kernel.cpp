@@ -148,10 +148,19 @@ SWARMSIM_AVX2 __attribute__((flatten)) void gatherClassifyAvx2(std::size_t m, co
   std::uint32_t* md = s.mdeIdx.data();
   std::uint32_t* cj = s.cj.data();
   std::size_t nc = 0, nn = 0, nm = 0;
+  const __m256i laneIndex = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), farLanes = _mm256_set1_epi32(static_cast<int>(far));
   for (std::size_t e = 0; e < m; e += kLanes) {
-    std::uint32_t j[kLanes];
-    for (std::size_t l = 0; l < kLanes; ++l) j[l] = e + l < m ? cand[e + l] : far;  // far: in no class
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(cj + e), _mm256_loadu_si256(reinterpret_cast<const __m256i*>(j)));
+    // the eight sorted positions (past m: the far row, in no class)
+    __m256i pos;
+    if (m - e >= kLanes) {
+      pos = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(cand + e));
+    } else {
+      const __m256i in = _mm256_cmpgt_epi32(_mm256_set1_epi32(static_cast<int>(m - e)), laneIndex);
+      pos = _mm256_blendv_epi8(farLanes, _mm256_maskload_epi32(reinterpret_cast<const int*>(cand + e), in), in);
+    }
+    alignas(32) std::uint32_t j[kLanes];
+    _mm256_store_si256(reinterpret_cast<__m256i*>(j), pos);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(cj + e), pos);
     const auto row = [xyz4](std::uint32_t i) __attribute__((always_inline)) { return _mm_loadu_ps(xyz4 + 4 * std::size_t{i}); };
     const __m256 a0 = _mm256_insertf128_ps(_mm256_castps128_ps256(row(j[0])), row(j[4]), 1);
     const __m256 a1 = _mm256_insertf128_ps(_mm256_castps128_ps256(row(j[1])), row(j[5]), 1);
@@ -218,6 +227,11 @@ void NearScratch::growCandidates(std::size_t n) {
 
 void constraintSumScratch(std::size_t m, float threshold, float inv2s2, NearScratch& s, bool avx, Vec3& sum,
                           int& count) {
+  if (m == 0) {  // nothing counts: what the lanes would give
+    sum = Vec3::Zero();
+    count = 0;
+    return;
+  }
   const std::size_t mp = padded(m);
   s.reserve(mp);
   for (std::size_t e = m; e < mp; ++e) s.dx[e] = s.dy[e] = s.dz[e] = s.d2[e] = 0.0f;  // d2 = 0: not counted
@@ -278,10 +292,12 @@ void gatherClassify(std::size_t m, const std::uint32_t* cand, const float* xyz4,
 
 Vec3 zonalForce(std::size_t m, const ZoneLanes& z, NearScratch& s, bool avx) {
   const std::size_t mp = padded(m);
-  for (std::size_t e = m; e < mp; ++e) {  // beyond every zone
-    s.dx[e] = s.dy[e] = s.dz[e] = s.ux[e] = s.uy[e] = s.uz[e] = 0.0f;
-    s.d2[e] = 3.0e38f;
+  s.reserve(m + kLanes);
+  // beyond every zone: a whole lane block from m (a fixed count, so a vector store each)
+  for (float* a : {s.dx.data(), s.dy.data(), s.dz.data(), s.ux.data(), s.uy.data(), s.uz.data()}) {
+    for (std::size_t l = 0; l < kLanes; ++l) a[m + l] = 0.0f;
   }
+  for (std::size_t l = 0; l < kLanes; ++l) s.d2[m + l] = 3.0e38f;
   float out[12];
 #if SWARMSIM_X86_LANES
   avx ? zonalAvx(s, mp, z, out) : zonalSse(s, mp, z, out);
