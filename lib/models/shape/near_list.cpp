@@ -101,6 +101,24 @@ SWARMSIM_AVX2 __attribute__((flatten)) void scanAvx2(const UniformGrid& grid, st
   }
   out.resize(n);
 }
+// sortById of at most kRankSortMax entries without a branch per comparison: each entry's rank is how many
+// ids are smaller (ids are distinct), counted eight at a time, and the entry goes to its rank. ids[] holds the
+// m ids, padded to whole lanes with the largest id (never smaller than another); out gets the m positions.
+constexpr std::size_t kRankSortMax = 128;
+SWARMSIM_AVX2 void rankSortAvx2(const std::uint32_t* ids, const std::uint32_t* pos, std::size_t m,
+                                std::uint32_t* out) {
+  const __m256i flip = _mm256_set1_epi32(static_cast<int>(0x80000000u));  // unsigned order by signed compares
+  for (std::size_t i = 0; i < m; ++i) {
+    const __m256i key = _mm256_xor_si256(_mm256_set1_epi32(static_cast<int>(ids[i])), flip);
+    std::size_t rank = 0;
+    for (std::size_t j = 0; j < m; j += 8) {
+      const __m256i other = _mm256_xor_si256(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(ids + j)), flip);
+      rank += static_cast<std::size_t>(
+          __builtin_popcount(static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(key, other))))));
+    }
+    out[rank] = pos[i];
+  }
+}
 __attribute__((flatten)) void scanSse(const UniformGrid& g, std::uint32_t k, float x, float y, float z, float r,
                                       std::vector<std::uint32_t>& out) {
   scanLanes<SseLanes>(g, k, x, y, z, r, out);
@@ -113,7 +131,26 @@ SWARMSIM_AVX __attribute__((flatten)) void scanAvx(const UniformGrid& g, std::ui
 
 }  // namespace
 
-void sortById(std::vector<std::uint32_t>& pos, const std::uint32_t* idOf, std::vector<std::uint64_t>& keys) {
+void sortById(std::vector<std::uint32_t>& pos, const std::uint32_t* idOf, std::vector<std::uint64_t>& keys,
+              LaneSet lanes) {
+#if SWARMSIM_X86_LANES
+  const std::size_t m = pos.size();
+  if ((lanes == LaneSet::kAvx2 || lanes == LaneSet::kAvx512) && m <= kRankSortMax) {
+    // the ids and a copy of the positions in the keys' room (two 32-bit values per key), the ids padded
+    keys.resize(kRankSortMax);
+    auto* ids = reinterpret_cast<std::uint32_t*>(keys.data());
+    std::uint32_t* from = ids + kRankSortMax;
+    for (std::size_t e = 0; e < m; ++e) {
+      ids[e] = idOf[pos[e]];
+      from[e] = pos[e];
+    }
+    for (std::size_t e = m; e % 8 != 0; ++e) ids[e] = 0xffffffffu;
+    rankSortAvx2(ids, from, m, pos.data());
+    return;
+  }
+#else
+  (void)lanes;
+#endif
   keys.resize(pos.size());
   for (std::size_t e = 0; e < pos.size(); ++e) keys[e] = (std::uint64_t{idOf[pos[e]]} << 32) | pos[e];
   std::sort(keys.begin(), keys.end());
@@ -177,7 +214,7 @@ const std::uint32_t* NearLists::build(std::uint32_t k, float r, const UniformGri
     scanLanes<ScalarLanes>(grid, k, qx, qy, qz, r, scratch);
 #endif
   }
-  sortById(scratch, idOf, keys);
+  sortById(scratch, idOf, keys, lanes);
   m = scratch.size();
   if (m > capacity_) {
     next_.len[k] = kNone;

@@ -30,8 +30,10 @@
 
 namespace swarmsim {
 
-// sorted positions `pos` put in ascending order of their ids (idOf: sorted position -> id); keys: scratch
-void sortById(std::vector<std::uint32_t>& pos, const std::uint32_t* idOf, std::vector<std::uint64_t>& keys);
+// sorted positions `pos` put in ascending order of their ids (idOf: sorted position -> id, distinct ids);
+// keys: scratch; `lanes`: with AVX2, short lists are ordered by rank counts (the same order)
+void sortById(std::vector<std::uint32_t>& pos, const std::uint32_t* idOf, std::vector<std::uint64_t>& keys,
+              LaneSet lanes);
 
 class NearLists {
  public:

@@ -556,7 +556,7 @@ class ShapeModel final : public Model {
             if (j != k && counts(j)) found.push_back(j);
           }
         });
-        sortById(found, ids_.data(), ns.sortKeys);
+        sortById(found, ids_.data(), ns.sortKeys, lanes);
         cand = found.data();
         m = found.size();
       }
