@@ -241,7 +241,7 @@ TEST_CASE("Perlin noise on SIMD lanes equals withGradient bit for bit", "[noise]
 
 TEST_CASE("Perlin noise on eight AVX-512 lanes equals withGradient bit for bit", "[noise][fields]") {
   if (!PerlinNoise3::batchWide()) {
-    WARN("no AVX-512 F and DQ here (or SWARMSIM_NO_AVX512 set): the wide lanes are not tested");
+    WARN("no AVX-512 here (or SWARMSIM_NO_AVX512 set): the wide lanes are not tested");
     return;
   }
   constexpr int kWide = PerlinNoise3::kWideLanes;

@@ -47,9 +47,9 @@ typedef double V4 __attribute__((vector_size(32)));
 typedef double V2 __attribute__((vector_size(16)));
 typedef double V8 __attribute__((vector_size(64)));
 #if SWARMSIM_X86_LANES
-// the wide batch's entry (DQ for the 64-bit conversion of the cells; zero-masked intrinsics where GCC 12
-// warns about the undefined vector the unmasked ones start from)
-#define SWARMSIM_NOISE_WIDE __attribute__((target("avx512f,avx512dq,avx2")))
+// the wide batch's entry (zero-masked intrinsics where GCC 12 warns about the undefined vector the unmasked
+// ones start from)
+#define SWARMSIM_NOISE_WIDE __attribute__((target("avx512f,avx2")))
 #endif
 static_assert(PerlinNoise3::kLanes == 4, "V4 holds one batch");
 
@@ -220,23 +220,51 @@ struct PerlinNoise3::Lanes {
     run<V4>(noises, count, px, py, pz, value, gx, gy, gz, 0);
   }
 
+  // The wide batch's generic halves. No vector crosses between them and the AVX-512 entry below (only
+  // pointers to doubles do): clang refuses a call passing a 64-byte vector between a function with
+  // AVX-512 and one without, and the generic code cannot carry the AVX-512 attribute (the scalar and
+  // narrower lanes share it). Inlined into the entry, they compile to its instructions.
+  //
+  // the points' cells (wrapped), offsets, fades and their derivatives, per lane
+  template <typename V>
+  SWARMSIM_LANE_INLINE static void wideLattice(const double* px, const double* py, const double* pz,
+                                               int cell[3][kWideLanes], double t[3][kWideLanes],
+                                               double f[3][kWideLanes], double df[3][kWideLanes]) {
+    const V p[3] = {load<V>(px), load<V>(py), load<V>(pz)};
+    for (int a = 0; a < 3; ++a) {
+      const V fl = floorLanes(p[a]);
+      for (int l = 0; l < kWideLanes; ++l) cell[a][l] = wrapCell(fl[l]);
+      const V ta = p[a] - fl;
+      store(t[a], ta);
+      store(f[a], fade(ta));
+      store(df[a], dfade(ta));
+    }
+  }
+  // blend() of one noise from its corners' gradients G[c][a][l] to (gx, gy, gz)[l]
+  template <typename V>
+  SWARMSIM_LANE_INLINE static void wideBlend(const double G[8][3][kWideLanes], const double t[3][kWideLanes],
+                                             const double f[3][kWideLanes], const double df[3][kWideLanes],
+                                             double* gx, double* gy, double* gz) {
+    V g[8][3];
+    for (int c = 0; c < 8; ++c) {
+      for (int a = 0; a < 3; ++a) g[c][a] = load<V>(G[c][a]);
+    }
+    V grad[3];
+    blend(g, load<V>(t[0]), load<V>(t[1]), load<V>(t[2]), load<V>(f[0]), load<V>(f[1]), load<V>(f[2]),
+          load<V>(df[0]), load<V>(df[1]), load<V>(df[2]), grad);
+    store(gx, grad[0]);
+    store(gy, grad[1]);
+    store(gz, grad[2]);
+  }
+
   // eight points on the eight doubles of an AVX-512 register: the hashes per lane, the corners' gradients
   // by two-register permutes (kGrad's 16 rows), the arithmetic the same generic code as every other batch
   SWARMSIM_NOISE_WIDE __attribute__((flatten)) static void wide(const PerlinNoise3* noises, int count, const double* px,
                                                                  const double* py, const double* pz, double* gx,
                                                                  double* gy, double* gz) {
-    const V8 p[3] = {load<V8>(px), load<V8>(py), load<V8>(pz)};
-    __m256i cell[3];
-    V8 t[3], f[3], df[3];
-    const __m256i low8 = _mm256_set1_epi32(255);
-    for (int a = 0; a < 3; ++a) {
-      const V8 fl = floorLanes(p[a]);
-      // wrapCell: the integer's low eight bits (the 64-bit conversion, as the scalar code's, then its low half)
-      cell[a] = _mm256_and_si256(_mm512_maskz_cvtepi64_epi32(0xff, _mm512_maskz_cvttpd_epi64(0xff, fl)), low8);
-      t[a] = p[a] - fl;
-      f[a] = fade(t[a]);
-      df[a] = dfade(t[a]);
-    }
+    alignas(64) int cells[3][kWideLanes];
+    alignas(64) double t[3][kWideLanes], f[3][kWideLanes], df[3][kWideLanes];
+    wideLattice<V8>(px, py, pz, cells, t, f, df);
     // kGrad's column a as two registers of eight rows
     __m512d col[3][2];
     for (int a = 0; a < 3; ++a) {
@@ -245,12 +273,10 @@ struct PerlinNoise3::Lanes {
       col[a][0] = _mm512_load_pd(c);
       col[a][1] = _mm512_load_pd(c + 8);
     }
-    alignas(32) int cells[3][kWideLanes];
-    for (int a = 0; a < 3; ++a) _mm256_store_si256(reinterpret_cast<__m256i*>(cells[a]), cell[a]);
     // each noise's corner rows (hash & 15) per lane, by cornerGradients' scalar look-ups (their short chains
-    // of loads are quicker than vector gathers), three noises at a time, then as vectors
+    // of loads are quicker than vector gathers), three noises at a time, then the gradients as vectors
     alignas(32) int rows[3][8][kWideLanes];
-    double* const out[3] = {gx, gy, gz};
+    alignas(64) double G[8][3][kWideLanes];
     for (int first = 0; first < count; first += 3) {
       const int group = std::min(3, count - first);
       for (int k = 0; k < group; ++k) {
@@ -264,15 +290,13 @@ struct PerlinNoise3::Lanes {
         }
       }
       for (int k = 0; k < group; ++k) {
-        V8 G[8][3];
         for (int c = 0; c < 8; ++c) {
           const __m512i row =
               _mm512_maskz_cvtepu32_epi64(0xff, _mm256_load_si256(reinterpret_cast<const __m256i*>(rows[k][c])));
-          for (int d = 0; d < 3; ++d) G[c][d] = _mm512_maskz_permutex2var_pd(0xff, col[d][0], row, col[d][1]);
+          for (int d = 0; d < 3; ++d) _mm512_store_pd(G[c][d], _mm512_maskz_permutex2var_pd(0xff, col[d][0], row, col[d][1]));
         }
-        V8 grad[3];
-        blend(G, t[0], t[1], t[2], f[0], f[1], f[2], df[0], df[1], df[2], grad);
-        for (int d = 0; d < 3; ++d) store(out[d] + (first + k) * kWideLanes, grad[d]);
+        const int at = (first + k) * kWideLanes;
+        wideBlend<V8>(G, t, f, df, gx + at, gy + at, gz + at);
       }
     }
   }
@@ -355,7 +379,7 @@ void PerlinNoise3::withGradientWide(const PerlinNoise3* noises, int count, const
 
 bool PerlinNoise3::batchWide() {
 #if SWARMSIM_X86_LANES
-  static const bool cpu = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq");
+  static const bool cpu = __builtin_cpu_supports("avx512f");
   return cpu && laneSet() == LaneSet::kAvx512;
 #else
   return false;

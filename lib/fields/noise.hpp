@@ -52,7 +52,7 @@ class PerlinNoise3 {
   // permutes. Only where batchWide() says so.
   static void withGradientWide(const PerlinNoise3* noises, int count, const double* px, const double* py,
                                const double* pz, double* gx, double* gy, double* gz);
-  // whether the CPU has AVX-512 F and DQ and the lanes are not limited (laneSet() == kAvx512: neither
+  // whether the CPU has AVX-512 F and the lanes are not limited (laneSet() == kAvx512: neither
   // SWARMSIM_NO_AVX512 nor a narrower setting; read at each call)
   static bool batchWide();
 
