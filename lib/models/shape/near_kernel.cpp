@@ -87,11 +87,22 @@ inline void zonalLanes(const NearScratch& s, std::size_t m, const ZoneLanes& z, 
   for (int c = 8; c < 12; ++c) out[c] = tail[c - 8];
 }
 
+// the candidates' positions for classifyLanes: eight at a time from scratch.cx/cy/cz
+template <typename L>
+struct ScratchPositions {
+  const NearScratch& s;
+  void operator()(std::size_t e, typename L::V& x, typename L::V& y, typename L::V& z) const {
+    x = L::load(s.cx.data() + e);
+    y = L::load(s.cy.data() + e);
+    z = L::load(s.cz.data() + e);
+  }
+};
+
 // kAvx2: the indices of each class packed by an AVX2 table look-up (packSetLanes), without a branch per
-// entry; the same result as the loop over the set bits
-template <typename L, bool kAvx2>
+// entry; the same result as the loop over the set bits. `positions(e, x, y, z)` gives candidates e..e+7.
+template <typename L, bool kAvx2, typename Positions>
 inline void classifyLanes(std::size_t m, float qx, float qy, float qz, float threshold, float near2, float reach2,
-                          NearScratch& s, std::size_t counts[3]) {
+                          NearScratch& s, std::size_t counts[3], const Positions& positions) {
   using V = typename L::V;
   const V vx = L::set1(qx), vy = L::set1(qy), vz = L::set1(qz), thr = L::set1(threshold);
   const V vnear = L::set1(near2), vreach = L::set1(reach2), zero = L::set1(0.0f), sign = L::set1(-0.0f);
@@ -100,8 +111,9 @@ inline void classifyLanes(std::size_t m, float qx, float qy, float qz, float thr
   std::uint32_t* md = s.mdeIdx.data();
   std::size_t nc = 0, nn = 0, nm = 0;
   for (std::size_t e = 0; e < m; e += kLanes) {
-    const V dx = L::sub(L::load(s.cx.data() + e), vx), dy = L::sub(L::load(s.cy.data() + e), vy);
-    const V dz = L::sub(L::load(s.cz.data() + e), vz);
+    V px, py, pz;
+    positions(e, px, py, pz);
+    const V dx = L::sub(px, vx), dy = L::sub(py, vy), dz = L::sub(pz, vz);
     const V d2 = L::add(L::add(L::mul(dx, dx), L::mul(dy, dy)), L::mul(dz, dz));
     L::store(s.cx.data() + e, dx);
     L::store(s.cy.data() + e, dy);
@@ -121,75 +133,61 @@ inline void classifyLanes(std::size_t m, float qx, float qy, float qz, float thr
 }
 
 #if SWARMSIM_X86_LANES
-__attribute__((flatten)) void classifySse(std::size_t m, float qx, float qy, float qz, float t, float n2, float r2,
-                                          NearScratch& s, std::size_t c[3]) {
-  classifyLanes<SseLanes, false>(m, qx, qy, qz, t, n2, r2, s, c);
-}
-SWARMSIM_AVX __attribute__((flatten)) void classifyAvx(std::size_t m, float qx, float qy, float qz, float t, float n2,
-                                                       float r2, NearScratch& s, std::size_t c[3]) {
-  classifyLanes<AvxLanes, false>(m, qx, qy, qz, t, n2, r2, s, c);
-}
-SWARMSIM_AVX2 __attribute__((flatten)) void classifyAvx2(std::size_t m, float qx, float qy, float qz, float t,
-                                                         float n2, float r2, NearScratch& s, std::size_t c[3]) {
-  classifyLanes<AvxLanes, true>(m, qx, qy, qz, t, n2, r2, s, c);
-}
-// classifyLanes<AvxLanes, true> of candidates given by sorted position: each one's position one 16-byte row
-// of xyz4, eight rows transposed to three vectors (no scalar copies in between)
-SWARMSIM_AVX2 __attribute__((flatten)) void gatherClassifyAvx2(std::size_t m, const std::uint32_t* cand,
-                                                               const float* xyz4, std::uint32_t far, float qx,
-                                                               float qy, float qz,
-                                                               float threshold, float near2, float reach2,
-                                                               NearScratch& s, std::size_t counts[3]) {
-  const __m256 vx = _mm256_set1_ps(qx), vy = _mm256_set1_ps(qy), vz = _mm256_set1_ps(qz);
-  const __m256 thr = _mm256_set1_ps(threshold), vnear = _mm256_set1_ps(near2), vreach = _mm256_set1_ps(reach2);
-  const __m256 zero = _mm256_setzero_ps(), sign = _mm256_set1_ps(-0.0f);
-  std::uint32_t* con = s.conIdx.data();
-  std::uint32_t* nr = s.nearIdx.data();
-  std::uint32_t* md = s.mdeIdx.data();
-  std::uint32_t* cj = s.cj.data();
-  std::size_t nc = 0, nn = 0, nm = 0;
-  const __m256i laneIndex = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), farLanes = _mm256_set1_epi32(static_cast<int>(far));
-  for (std::size_t e = 0; e < m; e += kLanes) {
-    // the eight sorted positions (past m: the far row, in no class)
+// the candidates' positions for gatherClassify: the sorted positions cand[e..e+7] (past m: the far row, in
+// no class) go to scratch.cj, and their 16-byte rows of xyz4 are transposed to three vectors
+struct RowPositions {
+  const std::uint32_t* cand;
+  std::size_t m;
+  const float* xyz4;
+  std::uint32_t far;
+  std::uint32_t* cj;
+  SWARMSIM_AVX2 __m128 row(std::uint32_t i) const { return _mm_loadu_ps(xyz4 + 4 * std::size_t{i}); }
+  SWARMSIM_AVX2 void operator()(std::size_t e, AvxLanes::V& x, AvxLanes::V& y, AvxLanes::V& z) const {
     __m256i pos;
     if (m - e >= kLanes) {
       pos = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(cand + e));
     } else {
-      const __m256i in = _mm256_cmpgt_epi32(_mm256_set1_epi32(static_cast<int>(m - e)), laneIndex);
-      pos = _mm256_blendv_epi8(farLanes, _mm256_maskload_epi32(reinterpret_cast<const int*>(cand + e), in), in);
+      const __m256i in = _mm256_cmpgt_epi32(_mm256_set1_epi32(static_cast<int>(m - e)),
+                                            _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+      pos = _mm256_blendv_epi8(_mm256_set1_epi32(static_cast<int>(far)),
+                               _mm256_maskload_epi32(reinterpret_cast<const int*>(cand + e), in), in);
     }
     alignas(32) std::uint32_t j[kLanes];
     _mm256_store_si256(reinterpret_cast<__m256i*>(j), pos);
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(cj + e), pos);
-    const auto row = [xyz4](std::uint32_t i) __attribute__((always_inline)) { return _mm_loadu_ps(xyz4 + 4 * std::size_t{i}); };
     const __m256 a0 = _mm256_insertf128_ps(_mm256_castps128_ps256(row(j[0])), row(j[4]), 1);
     const __m256 a1 = _mm256_insertf128_ps(_mm256_castps128_ps256(row(j[1])), row(j[5]), 1);
     const __m256 a2 = _mm256_insertf128_ps(_mm256_castps128_ps256(row(j[2])), row(j[6]), 1);
     const __m256 a3 = _mm256_insertf128_ps(_mm256_castps128_ps256(row(j[3])), row(j[7]), 1);
     const __m256 t0 = _mm256_unpacklo_ps(a0, a1), t1 = _mm256_unpackhi_ps(a0, a1);
     const __m256 t2 = _mm256_unpacklo_ps(a2, a3), t3 = _mm256_unpackhi_ps(a2, a3);
-    const __m256 dx = _mm256_sub_ps(_mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(1, 0, 1, 0)), vx);
-    const __m256 dy = _mm256_sub_ps(_mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(3, 2, 3, 2)), vy);
-    const __m256 dz = _mm256_sub_ps(_mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(1, 0, 1, 0)), vz);
-    const __m256 d2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
-    _mm256_storeu_ps(s.cx.data() + e, dx);
-    _mm256_storeu_ps(s.cy.data() + e, dy);
-    _mm256_storeu_ps(s.cz.data() + e, dz);
-    _mm256_storeu_ps(s.cd2.data() + e, d2);
-    const __m256 man = _mm256_add_ps(_mm256_add_ps(_mm256_andnot_ps(sign, dx), _mm256_andnot_ps(sign, dy)),
-                                     _mm256_andnot_ps(sign, dz));
-    const auto base = static_cast<std::uint32_t>(e);
-    const auto inCon = static_cast<unsigned>(
-        _mm256_movemask_ps(_mm256_and_ps(_mm256_cmp_ps(man, thr, _CMP_LT_OQ), _mm256_cmp_ps(d2, zero, _CMP_GT_OQ))));
-    const auto inNear = static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(d2, vnear, _CMP_LE_OQ)));
-    const auto inReach = static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(d2, vreach, _CMP_LE_OQ)));
-    nc += packLaneIndices(base, inCon, con + nc);
-    nn += packLaneIndices(base, inNear, nr + nn);
-    nm += packLaneIndices(base, inReach, md + nm);
+    x.a = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(1, 0, 1, 0));
+    y.a = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(3, 2, 3, 2));
+    z.a = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(1, 0, 1, 0));
   }
-  counts[0] = nc;
-  counts[1] = nn;
-  counts[2] = nm;
+};
+#endif
+
+#if SWARMSIM_X86_LANES
+__attribute__((flatten)) void classifySse(std::size_t m, float qx, float qy, float qz, float t, float n2, float r2,
+                                          NearScratch& s, std::size_t c[3]) {
+  classifyLanes<SseLanes, false>(m, qx, qy, qz, t, n2, r2, s, c, ScratchPositions<SseLanes>{s});
+}
+SWARMSIM_AVX __attribute__((flatten)) void classifyAvx(std::size_t m, float qx, float qy, float qz, float t, float n2,
+                                                       float r2, NearScratch& s, std::size_t c[3]) {
+  classifyLanes<AvxLanes, false>(m, qx, qy, qz, t, n2, r2, s, c, ScratchPositions<AvxLanes>{s});
+}
+SWARMSIM_AVX2 __attribute__((flatten)) void classifyAvx2(std::size_t m, float qx, float qy, float qz, float t,
+                                                         float n2, float r2, NearScratch& s, std::size_t c[3]) {
+  classifyLanes<AvxLanes, true>(m, qx, qy, qz, t, n2, r2, s, c, ScratchPositions<AvxLanes>{s});
+}
+// classifyLanes<AvxLanes, true> of candidates given by sorted position (RowPositions)
+SWARMSIM_AVX2 __attribute__((flatten)) void gatherClassifyAvx2(std::size_t m, const std::uint32_t* cand,
+                                                               const float* xyz4, std::uint32_t far, float qx,
+                                                               float qy, float qz, float threshold, float near2,
+                                                               float reach2, NearScratch& s, std::size_t counts[3]) {
+  classifyLanes<AvxLanes, true>(m, qx, qy, qz, threshold, near2, reach2, s, counts,
+                                RowPositions{cand, m, xyz4, far, s.cj.data()});
 }
 __attribute__((flatten)) void constraintSse(const NearScratch& s, std::size_t m, float t, float c, float o[3][kLanes],
                                             int& n) {
@@ -265,7 +263,8 @@ void classifyCandidates(std::size_t m, const Vec3& q, float threshold, float nea
   }
 #else
   (void)lanes;
-  classifyLanes<ScalarLanes, false>(mp, q.x(), q.y(), q.z(), threshold, near2, reach2, s, counts);
+  classifyLanes<ScalarLanes, false>(mp, q.x(), q.y(), q.z(), threshold, near2, reach2, s, counts,
+                                    ScratchPositions<ScalarLanes>{s});
 #endif
 }
 

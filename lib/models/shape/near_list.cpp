@@ -76,7 +76,7 @@ SWARMSIM_AVX2 __attribute__((flatten)) void scanAvx2(const UniformGrid& grid, st
       const std::uint32_t end = grid.cellEnd(row + static_cast<std::size_t>(hi[0]));
       for (; j < end; j += 8) {
         __m256 px, py, pz;
-        const __m256i ids = _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(j)), laneIndex);
+        const __m256i lanePos = _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(j)), laneIndex);
         unsigned valid = 0xffu;
         if (end - j >= 8) {
           px = _mm256_loadu_ps(sx + j);
@@ -94,7 +94,7 @@ SWARMSIM_AVX2 __attribute__((flatten)) void scanAvx2(const UniformGrid& grid, st
         unsigned hit = static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(d2, vr2, _CMP_LE_OQ))) & valid;
         if (k - j < 8u) hit &= ~(1u << (k - j));  // not the insect itself
         const __m256i pick = _mm256_load_si256(reinterpret_cast<const __m256i*>(kLanePack.lanes[hit]));
-        _mm256_storeu_si256(reinterpret_cast<__m256i*>(dst + n), _mm256_permutevar8x32_epi32(ids, pick));
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(dst + n), _mm256_permutevar8x32_epi32(lanePos, pick));
         n += static_cast<std::size_t>(__builtin_popcount(hit));
       }
     }
@@ -136,10 +136,8 @@ void sortById(std::vector<std::uint32_t>& pos, const std::uint32_t* idOf, std::v
 #if SWARMSIM_X86_LANES
   const std::size_t m = pos.size();
   if ((lanes == LaneSet::kAvx2 || lanes == LaneSet::kAvx512) && m <= kRankSortMax) {
-    // the ids and a copy of the positions in the keys' room (two 32-bit values per key), the ids padded
-    keys.resize(kRankSortMax);
-    auto* ids = reinterpret_cast<std::uint32_t*>(keys.data());
-    std::uint32_t* from = ids + kRankSortMax;
+    // the ids, padded, and a copy of the positions
+    alignas(32) std::uint32_t ids[kRankSortMax], from[kRankSortMax];
     for (std::size_t e = 0; e < m; ++e) {
       ids[e] = idOf[pos[e]];
       from[e] = pos[e];

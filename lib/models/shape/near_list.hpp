@@ -31,7 +31,8 @@
 namespace swarmsim {
 
 // sorted positions `pos` put in ascending order of their ids (idOf: sorted position -> id, distinct ids);
-// keys: scratch; `lanes`: with AVX2, short lists are ordered by rank counts (the same order)
+// keys: scratch of the long lists' sort; `lanes`: with AVX2, short lists are ordered by rank counts (the
+// same order)
 void sortById(std::vector<std::uint32_t>& pos, const std::uint32_t* idOf, std::vector<std::uint64_t>& keys,
               LaneSet lanes);
 

@@ -328,6 +328,7 @@ class ShapeModel final : public Model {
       }
     });
 
+    const bool asLast = asLastStep.load(std::memory_order_relaxed);
     const ZonalSum zones(static_cast<float>(p_.rRep), static_cast<float>(p_.rAli), rAtt, static_cast<float>(p_.wRep),
                          static_cast<float>(p_.wAli), static_cast<float>(p_.wAtt));
     // F_int over the K nearest within r_att of insect k. Its K nearest are no farther than the farthest of
@@ -343,7 +344,7 @@ class ShapeModel final : public Model {
       reach_.resize(n);
       // the lists hold last step's sorted positions, which are this step's state indices only while the state
       // is in the order last step wrote it: else (the first step, a resume, a new target) they go
-      if (!asLastStep.load(std::memory_order_relaxed)) lists_.clear();
+      if (!asLast) lists_.clear();
     }
     const ZoneLanes zoneLanes = {zones.rRep2, zones.rAli2, zones.rAtt2, {zones.w[0], zones.w[1], zones.w[2]}};
     const LaneSet lanes = laneSet();
@@ -359,8 +360,7 @@ class ShapeModel final : public Model {
       const float qx = sx[k], qy = sy[k], qz = sz[k];
       // last step's data of this insect sit in its state index (last step's sorted position), unless the
       // state is not as last step left it (the step after a resume or a new target)
-      const std::uint32_t i = order[k];
-      const std::uint32_t from = i < lastIds_.size() && lastIds_[i] == ids_[k] ? i : NearLists::kNone;
+      const std::uint32_t from = asLast ? order[k] : NearLists::kNone;
       // the candidates: every insect within `cover` now, from the list when it reaches F_con's and MDE's
       // radii, else a new one of 1 + skin times the larger of those and last step's K-th distance
       // F_int's K nearest within r_att lie within last step's K-th distance plus two of last step's largest
