@@ -327,6 +327,32 @@ TEST_CASE("fastswarm: agents fly the reference's velocities, hold station, and 1
   CHECK(far < 0.5);  // the swarm stays over its marker (the centre of E_cos)
 }
 
+TEST_CASE("fastswarm: every lane set gives the same bytes (the zones gathered, the sums, the search)",
+          "[fastswarm][scenario]") {
+  // 300 agents in the aggregation's ball: runs of the grid longer than one vector, both zones full
+  TempDir dir;
+  const std::string args = "run " + shellQuote(kScenario) + " --frames 40 --threads 2 --fixed-threads --quiet -o ";
+  const std::vector<std::string> settings = {"", "SWARMSIM_NO_AVX512=1", "SWARMSIM_NO_AVX2=1", "SWARMSIM_NO_AVX=1"};
+  for (std::size_t i = 0; i < settings.size(); ++i) {
+    const std::string env = settings[i].empty() ? "" : "env " + settings[i] + " ";
+    const auto r = swarmsim_test::runCommand("cd " + shellQuote(dir.path().string()) + " && " + env +
+                                                 shellQuote(swarmsim_test::kSwarmsimExe) + " " + args + "l" + std::to_string(i) + ".h5",
+                                             dir.path());
+    INFO(settings[i] << ": " << r.err);
+    REQUIRE(r.exitCode == 0);
+  }
+  for (const char* d : {"swarms/mosquitoes/position", "swarms/mosquitoes/velocity"}) {
+    const auto a = swarmsim::readFloatDataset(dir.file("l0.h5"), d);
+    REQUIRE(a.size() == 40 * 300 * 3);
+    for (std::size_t i = 1; i < settings.size(); ++i) {
+      INFO(d << " with " << settings[i]);
+      const auto b = swarmsim::readFloatDataset(dir.file("l" + std::to_string(i) + ".h5"), d);
+      REQUIRE(a.size() == b.size());
+      CHECK(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0);
+    }
+  }
+}
+
 TEST_CASE("fastswarm: bad parameters are exit 2 with the JSON path", "[fastswarm][input]") {
   TempDir dir;
   struct Case {

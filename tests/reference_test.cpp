@@ -243,6 +243,40 @@ TEST_CASE("reference: a written file reads back the same, and info describes it"
         "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
 }
 
+TEST_CASE("reference: the group of a speed is the last group starting at or below it, by either look-up",
+          "[fastswarm][reference]") {
+  // groups of 1 to 4 samples with runs of equal speeds across group boundaries
+  Reference r;
+  for (int i = 0; i < 200; ++i) r.speed.push_back(0.01 * static_cast<double>(i / 3));
+  std::int64_t start = 0;
+  for (int g = 0; start < 200; ++g) {
+    r.groupStart.push_back(start);
+    start += 1 + g % 4;
+  }
+  r.groupStart.push_back(200);
+  REQUIRE(r.groups() > 50);
+  Reference plain = r;  // without groupFloor: speeds read through groupStart
+  r.indexGroups();
+  REQUIRE(r.groupFloor.size() == r.groups());
+  const auto brute = [&](double s) {
+    std::size_t g = 0;
+    for (std::size_t k = 0; k < r.groups(); ++k) {
+      if (r.speed[static_cast<std::size_t>(r.groupStart[k])] <= s) g = k;
+    }
+    return g;
+  };
+  for (int i = -20; i < 720; ++i) {
+    // below, at and between the sample speeds
+    const double s = 0.0025 * static_cast<double>(i);
+    CHECK(r.groupOfSpeed(s) == brute(s));
+    CHECK(plain.groupOfSpeed(s) == brute(s));
+  }
+  for (std::size_t k = 0; k < r.groups(); ++k) {
+    const double s = r.speed[static_cast<std::size_t>(r.groupStart[k])];
+    CHECK(r.groupOfSpeed(s) == brute(s));
+  }
+}
+
 TEST_CASE("reference: bad input is exit 2 with the file named", "[fastswarm][reference][input]") {
   TempDir dir;
   writeFile(dir, "short.csv", "id,time,x,y,z\n1,0,0,0,0\n1,0.1,1,0,0\n2,0,0,0,0\n");

@@ -166,18 +166,23 @@ std::string sha256File(const std::string& path) {
   return hex;
 }
 
+void Reference::indexGroups() {
+  groupFloor.resize(groups());
+  for (std::size_t g = 0; g < groupFloor.size(); ++g) groupFloor[g] = speed[static_cast<std::size_t>(groupStart[g])];
+}
+
 std::size_t Reference::groupOfSpeed(double s) const {
   const std::size_t g = groups();
   if (g == 0) return 0;
-  // the last group whose first sample is not faster than s
-  std::size_t lo = 0, hi = g;  // invariant: answer in [lo, hi)
-  while (hi - lo > 1) {
-    const std::size_t mid = (lo + hi) / 2;
-    if (speed[static_cast<std::size_t>(groupStart[mid])] <= s) {
-      lo = mid;
-    } else {
-      hi = mid;
-    }
+  // the last group whose first sample is not faster than s (0 if none): the answer lies in [lo, lo + len); each
+  // halving is a conditional move, not a branch (which the agents' speeds would take at random)
+  const bool indexed = groupFloor.size() == g;
+  std::size_t lo = 0, len = g;
+  while (len > 1) {
+    const std::size_t half = len / 2, mid = lo + half;
+    const double first = indexed ? groupFloor[mid] : speed[static_cast<std::size_t>(groupStart[mid])];
+    lo = first <= s ? mid : lo;
+    len -= half;
   }
   return lo;
 }
@@ -317,6 +322,7 @@ Reference buildReference(const ReferenceBuildOptions& options) {
   const std::int64_t groups = std::max<std::int64_t>(1, m / options.groupSize);
   for (std::int64_t g = 0; g < groups; ++g) ref.groupStart.push_back(g * options.groupSize);
   ref.groupStart.push_back(m);
+  ref.indexGroups();
   ref.swarmsimVersion = kVersion;
   return ref;
 }
@@ -440,6 +446,7 @@ Reference readReference(const std::string& path) {
   for (std::size_t g = 1; tiles && g < ref.groupStart.size(); ++g) tiles = ref.groupStart[g] > ref.groupStart[g - 1];
   for (std::size_t i = 1; tiles && i < n; ++i) tiles = ref.speed[i] >= ref.speed[i - 1];
   if (!tiles) throw InputError(path + ": its samples are empty, not sorted by speed, or its groups do not tile them");
+  ref.indexGroups();
   const std::size_t s = rowsOf(sources, "name", path);
   const auto name = readStrings(sources, "name", path, s), given = readStrings(sources, "path", path, s);
   const auto sha = readStrings(sources, "sha256", path, s), kind = readStrings(sources, "kind", path, s);
