@@ -207,88 +207,118 @@ struct Avx2Bound : AvxLanes {
   }
 };
 
-// how far below the exact own terms the wide lanes' bound is put, relative to it: their e^x (degree-6
-// polynomial of 2^f, about 2e-7, plus the rounding of x log2 e, below 4e-6 for x <= 40) and the order of the
-// sums, with room to spare (the distances in the exponents are bounded below by themselves)
+// how far below the exact own terms the wide lanes' bound is put, relative to it: their e^x (degree-5 Taylor
+// polynomial of 2^f for f in [-1/2, 1/2], within 3.4e-6; plus the rounding of x log2 e, below 4e-6 for x <= 40)
+// and the order of the sums, with room to spare (the distances in the exponents are bounded below by themselves)
 inline float boundMargin(const EnergyParams& p) { return 1e-4f + 4e-6f * p.rho; }
 
 // the lower bounds of the candidates [first, first + n) into out[0, n) and their least value: the own terms
 // (eq. 7, 9, 10, 13, 14, the lures of eq. 11) less the margin, plus the interaction's bound (the factors f times
-// the energies of no move rep0, oa0, danger0, as in argminEnergyBounded)
+// the energies of no move rep0, oa0, danger0, as in argminEnergyBounded). What does not depend on the candidate
+// is made once, before the loop: the terms toward a fixed unit vector (centre, heading, noise, control, lures)
+// are one table, so a block of candidates costs about a hundred vector operations and no unpredictable branch.
 template <typename L>
 __attribute__((always_inline)) inline float boundsWide(const AgentInput& in, const Candidates& c,
                                                        const BoundFactors& f, std::size_t first, std::size_t n,
                                                        const EnergyParams& p, float rep0, float oa0, float danger0,
                                                        float* out) {
   using V = typename L::V;
-  const V rho = L::set1(p.rho * 1.44269504f);  // e^{ρ d} = 2^{ρ log2(e) d}
+  constexpr float kLog2e = 1.44269504f;  // e^{ρ d} = 2^{ρ log2(e) d}
+  // ρ log2(e) d <= 126 (the exponents scale2 takes) for every d <= 2.01, the longest distance between unit or
+  // zero vectors with rounding; a larger ρ clamps
+  const bool clamp = p.rho * kLog2e * 2.01f > 126.0f;
   const V keep = L::set1(1.0f - boundMargin(p));
   const V invDt = L::set1(1.0f / p.dt), half = L::set1(0.5f), threeHalves = L::set1(1.5f), tiny = L::set1(1e-30f);
-  const V hi = L::set1(126.0f);
-  // at most sqrt(x) for x >= 0 (x <= 0: about 0), from the reciprocal square root lowered by its error bound
-  const V below = L::set1(L::kRsqrtBelow);
-  const auto root = [&](V x2) __attribute__((always_inline)) {
+  const V hi = L::set1(126.0f), zero = L::set1(0.0f);
+  // ρ log2(e) times at most sqrt(x) for x >= 0 (x <= 0: about 0), from the reciprocal square root lowered by its
+  // error bound
+  const V rhoBelow = L::set1(p.rho * kLog2e * L::kRsqrtBelow);
+  const auto scaledRoot = [&](V x2) __attribute__((always_inline)) {
     const V x = L::max(x2, tiny);
-    return L::mul(x, L::mul(L::rsqrt(x), below));
+    return L::mul(x, L::mul(L::rsqrt(x), rhoBelow));
   };
-  // w 2^{t} for t in [0, 126] (ρ log2(e) d), added to acc
-  const auto term = [&](float w, V t, V acc) __attribute__((always_inline)) {
-    t = L::min(t, hi);
+  // w 2^t for t in [0, 126] (ρ log2(e) d), added to acc
+  const V c1 = L::set1(0.6931471805599453f), c2 = L::set1(0.2402265069591007f), c3 = L::set1(5.550410866482158e-2f);
+  const V c4 = L::set1(9.618129107628477e-3f), c5 = L::set1(1.3333558146428443e-3f), one = L::set1(1.0f);
+  const auto term = [&](V w, V t, V acc) __attribute__((always_inline)) {
+    if (clamp) t = L::min(t, hi);
     const V k = L::round(t);
     const V g = L::sub(t, k);  // in [-0.5, 0.5]
-    V q = L::set1(1.5403530393381608e-4f);  // ln2^6 / 720
-    q = L::fma(q, g, L::set1(1.3333558146428443e-3f));
-    q = L::fma(q, g, L::set1(9.618129107628477e-3f));
-    q = L::fma(q, g, L::set1(5.550410866482158e-2f));
-    q = L::fma(q, g, L::set1(0.2402265069591007f));
-    q = L::fma(q, g, L::set1(0.6931471805599453f));
-    q = L::fma(q, g, L::set1(1.0f));
-    return L::fma(L::set1(w), L::scale2(q, k), acc);
+    // 1 + c1 g + ... + c5 g^5 as (1 + c1 g) + g^2 ((c2 + c3 g) + g^2 (c4 + c5 g)): a shorter chain than Horner's
+    const V g2 = L::mul(g, g);
+    const V q = L::fma(g2, L::fma(g2, L::fma(c5, g, c4), L::fma(c3, g, c2)), L::fma(c1, g, one));
+    return L::fma(w, L::scale2(q, k), acc);
   };
-  // ρ log2(e) times at most |u − a| for unit or zero vectors u (uu = |u|²) and a: |u − a|² = uu + |a|² − 2 u·a,
-  // less 2e-6 for its rounding
-  const auto toward = [&](V ux, V uy, V uz, V uu, float ax, float ay, float az) __attribute__((always_inline)) {
-    const V dot = L::fma(ux, L::set1(ax), L::fma(uy, L::set1(ay), L::mul(uz, L::set1(az))));
-    const V d2 = L::fnma(L::set1(2.0f), dot, L::add(uu, L::set1(ax * ax + ay * ay + az * az - 2e-6f)));
-    return L::mul(rho, root(d2));
+  // the terms w e^{ρ |u − a|} toward fixed unit (or zero) vectors a: |u − a|² = |u|² + |a|² − 2 u·a, less 2e-6
+  // for its rounding, as |u|² + C + u·A with A = −2 a and C = |a|² − 2e-6
+  constexpr std::size_t kTable = 8;
+  V tw[kTable], tx[kTable], ty[kTable], tz[kTable], tc[kTable];
+  std::size_t terms = 0;
+  const auto toward = [&](float w, float ax, float ay, float az) {
+    tw[terms] = L::set1(w);
+    tx[terms] = L::set1(-2.0f * ax);
+    ty[terms] = L::set1(-2.0f * ay);
+    tz[terms] = L::set1(-2.0f * az);
+    tc[terms] = L::set1(ax * ax + ay * ay + az * az - 2e-6f);
+    ++terms;
   };
+  if (p.w.cos > 0.0f) toward(p.w.cos, in.center.x(), in.center.y(), in.center.z());
+  if (p.w.dir > 0.0f) toward(p.w.dir, in.vhat.x(), in.vhat.y(), in.vhat.z());
+  if (p.w.n > 0.0f) toward(p.w.n, in.noise.x(), in.noise.y(), in.noise.z());
+  if (p.w.user > 0.0f) toward(p.w.user, in.control.x(), in.control.y(), in.control.z());
+  std::size_t lureFrom = in.lures;  // the lures that did not fit the table: one by one in the loop
+  if (p.w.env > 0.0f) {
+    for (lureFrom = 0; lureFrom < in.lures && terms < kTable; ++lureFrom) {
+      toward(p.w.env, in.lureX[lureFrom], in.lureY[lureFrom], in.lureZ[lureFrom]);
+    }
+  }
+  const bool acc = p.w.acc > 0.0f;
+  const V wAcc = L::set1(p.w.acc), slackAcc = L::set1(p.w.acc * 1e-6f);
+  // a' = (v − v_t) / Δt, exactly zero where the exact terms' is (v = v_t): their â' is zero there
+  const V bx = L::set1(in.v.x()), by = L::set1(in.v.y()), bz = L::set1(in.v.z());
+  const V vRep = L::set1(rep0), vOa = L::set1(oa0), vDanger = L::set1(danger0);
   V least = L::set1(std::numeric_limits<float>::infinity());
   for (std::size_t b = 0; b < n; b += L::kWidth) {
     const std::size_t k = first + b, m = n - b;
     const V ux = L::load(c.ux.data() + k, m), uy = L::load(c.uy.data() + k, m), uz = L::load(c.uz.data() + k, m);
     const V uu = L::fma(ux, ux, L::fma(uy, uy, L::mul(uz, uz)));
-    V e = L::set1(0.0f);
-    if (p.w.cos > 0.0f) e = term(p.w.cos, toward(ux, uy, uz, uu, in.center.x(), in.center.y(), in.center.z()), e);
-    if (p.w.dir > 0.0f) e = term(p.w.dir, toward(ux, uy, uz, uu, in.vhat.x(), in.vhat.y(), in.vhat.z()), e);
-    V slack = L::set1(0.0f);
-    if (p.w.acc > 0.0f) {
-      const V ax = L::mul(L::sub(L::load(c.vx.data() + k, m), L::set1(in.v.x())), invDt);
-      const V ay = L::mul(L::sub(L::load(c.vy.data() + k, m), L::set1(in.v.y())), invDt);
-      const V az = L::mul(L::sub(L::load(c.vz.data() + k, m), L::set1(in.v.z())), invDt);
+    V e = zero;
+    for (std::size_t t = 0; t < terms; ++t) {
+      const V d2 = L::fma(ux, tx[t], L::fma(uy, ty[t], L::fma(uz, tz[t], L::add(uu, tc[t]))));
+      e = term(tw[t], scaledRoot(d2), e);
+    }
+    for (std::size_t j = lureFrom; j < in.lures; ++j) {
+      const float ax = in.lureX[j], ay = in.lureY[j], az = in.lureZ[j];
+      const V d2 = L::fma(ux, L::set1(-2.0f * ax),
+                          L::fma(uy, L::set1(-2.0f * ay),
+                                 L::fma(uz, L::set1(-2.0f * az), L::add(uu, L::set1(ax * ax + ay * ay + az * az - 2e-6f)))));
+      e = term(L::set1(p.w.env), scaledRoot(d2), e);
+    }
+    V slack = zero;
+    if (acc) {
+      const V ax = L::mul(L::sub(L::load(c.vx.data() + k, m), bx), invDt);
+      const V ay = L::mul(L::sub(L::load(c.vy.data() + k, m), by), invDt);
+      const V az = L::mul(L::sub(L::load(c.vz.data() + k, m), bz), invDt);
       const V m2 = L::fma(ax, ax, L::fma(ay, ay, L::mul(az, az)));
-      const V mag = L::sqrt(m2);
-      // a' / |a'| (zero for a' = 0: then a' itself is zero)
+      // 1 / |a'| from the reciprocal square root and one Newton step; |a'| = |a'|² / |a'| (zero for a' = 0)
       const V x = L::max(m2, tiny);
       V inv = L::rsqrt(x);
       inv = L::mul(inv, L::fnma(L::mul(half, x), L::mul(inv, inv), threeHalves));
+      const V mag = L::mul(m2, inv);
       const V dx = L::fnma(ax, inv, L::load(c.bx.data() + k, m));  // b − â' (its norm is the same)
       const V dy = L::fnma(ay, inv, L::load(c.by.data() + k, m));
       const V dz = L::fnma(az, inv, L::load(c.bz.data() + k, m));
-      const V d2 = L::fma(dx, dx, L::fma(dy, dy, L::mul(dz, dz)));
-      e = term(p.w.acc, L::mul(rho, root(L::sub(d2, L::set1(2e-6f)))), e);  // (2e-6: â' is rounded)
-      e = L::fma(L::set1(p.w.acc), L::abs(L::sub(mag, L::load(c.amag.data() + k, m))), e);
-      // |a'| is within a few units of rounding of the exact terms' (they divide by Δt): w_acc 1e-6 |a'| covers it
-      slack = L::mul(L::set1(p.w.acc * 1e-6f), mag);
-    }
-    if (p.w.n > 0.0f) e = term(p.w.n, toward(ux, uy, uz, uu, in.noise.x(), in.noise.y(), in.noise.z()), e);
-    if (p.w.user > 0.0f) e = term(p.w.user, toward(ux, uy, uz, uu, in.control.x(), in.control.y(), in.control.z()), e);
-    if (p.w.env > 0.0f) {
-      for (std::size_t j = 0; j < in.lures; ++j) e = term(p.w.env, toward(ux, uy, uz, uu, in.lureX[j], in.lureY[j], in.lureZ[j]), e);
+      const V d2 = L::fma(dx, dx, L::fma(dy, dy, L::fma(dz, dz, L::set1(-2e-6f))));  // (2e-6: â' is rounded)
+      e = term(wAcc, scaledRoot(d2), e);
+      e = L::fma(wAcc, L::abs(L::sub(mag, L::load(c.amag.data() + k, m))), e);
+      // this |a'| is within a few units of rounding of the exact terms' (which divide by Δt and take a square
+      // root): w_acc 1e-6 |a'| covers the difference
+      slack = L::mul(slackAcc, mag);
     }
     V lb = L::sub(L::mul(e, keep), slack);
-    if (rep0 > 0.0f) lb = L::fma(L::load(f.rep.data() + k, m), L::set1(rep0), lb);
-    if (oa0 > 0.0f) lb = L::fma(L::load(f.oa.data() + k, m), L::set1(oa0), lb);
-    if (danger0 > 0.0f) lb = L::fma(L::load(f.danger.data() + k, m), L::set1(danger0), lb);
+    lb = L::fma(L::load(f.rep.data() + k, m), vRep, lb);
+    lb = L::fma(L::load(f.oa.data() + k, m), vOa, lb);
+    lb = L::fma(L::load(f.danger.data() + k, m), vDanger, lb);
     L::store(out + b, lb, m);
     least = L::min(least, L::fillFrom(lb, m, std::numeric_limits<float>::infinity()));
   }
