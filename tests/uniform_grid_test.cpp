@@ -453,6 +453,57 @@ TEST_CASE("UniformGrid queries outside the bounding box", "[grid]") {
   for (const Visit& v : visits(g, {-0.5f, 0.5f, 0.5f}, 0.6f)) CHECK(g.sortedX()[v.k] <= 0.1f);
 }
 
+TEST_CASE("UniformGrid runs cut to the ball hold the same points within r, in the same order, and fewer others",
+          "[grid]") {
+  // points in a box (some queries outside it, some on cell faces), cells of several fractions of r; the hits
+  // of forEachRunInBall's runs against forEachRun's: the same sorted positions in the same order
+  std::mt19937 rng(33);
+  Points p = randomPoints(rng, 3000, 0.0f, 2.0f);
+  for (int i = 0; i < 64; ++i) p.add(0.25f * static_cast<float>(i % 8), 0.5f, 0.25f * static_cast<float>(i / 8));
+  std::uniform_real_distribution<float> u(-0.7f, 2.7f);
+  std::size_t hits = 0, readAll = 0, readBall = 0;
+  for (const float cell : {0.05f, 0.1f, 0.25f}) {
+    UniformGrid g;
+    build(g, p, cell);
+    for (const float r : {0.1f, 0.2f, 0.25f, 0.5f, 0.63f}) {
+      std::vector<Query> qs = pointsAsQueries(p);
+      for (int i = 0; i < 200; ++i) {
+        const float a = u(rng), b = u(rng), c = u(rng);
+        qs.push_back({a, b, c});
+      }
+      qs.push_back({0.25f, 0.5f, 0.25f});  // on cell faces
+      for (const Query& q : qs) {
+        const auto collect = [&](bool ball, std::size_t& read) {
+          std::vector<std::uint32_t> in;
+          const auto f = [&](std::uint32_t b, std::uint32_t e) {
+            read += e - b;
+            for (std::uint32_t k = b; k < e; ++k) {
+              const float dx = g.sortedX()[k] - q.x, dy = g.sortedY()[k] - q.y, dz = g.sortedZ()[k] - q.z;
+              if (dx * dx + dy * dy + dz * dz <= r * r) in.push_back(k);
+            }
+          };
+          if (ball) {
+            g.forEachRunInBall(q.x, q.y, q.z, r, f);
+          } else {
+            g.forEachRun(q.x, q.y, q.z, r, f);
+          }
+          return in;
+        };
+        std::size_t a = 0, b = 0;
+        const auto all = collect(false, a), cut = collect(true, b);
+        REQUIRE(cut == all);
+        CHECK(b <= a);
+        hits += all.size();
+        readAll += a;
+        readBall += b;
+      }
+    }
+  }
+  CHECK(hits > 100000);  // not vacuous
+  // the cut runs read clearly fewer points (cells of r / 2: about two thirds)
+  CHECK(static_cast<double>(readBall) < 0.85 * static_cast<double>(readAll));
+}
+
 TEST_CASE("UniformGrid visit order is deterministic", "[grid]") {
   ThreadCountGuard guard;
   std::mt19937 rng(99);

@@ -143,6 +143,47 @@ class UniformGrid {
     }
   }
 
+  // forEachRun's runs less the cells that cannot hold a point within r of q: a row whose cross-section (its y and
+  // z cell ranges) is farther than r from q is skipped, and the others' runs are cut to the cells the ball's chord
+  // along x overlaps. The same points within r, in the same order, from about two thirds of the points (cells of
+  // half r: 21.6 rows of 25 on average, 2.5 times the ball's volume instead of 3.7). The first and last cells of
+  // an axis reach to infinity (they hold what lies beyond the grid's box).
+  template <typename F>
+  void forEachRunInBall(float qx, float qy, float qz, float r, F&& f) const {
+    if (order_.empty()) return;
+    int lo[3], hi[3];
+    cellRange(qx, qy, qz, r, lo, hi);
+    const double rr = static_cast<double>(r) * (1.0 + 1e-6), rr2 = rr * rr;
+    // the squared distance from q to the slab of cells c on axis a, a little less (1e-6 of a cell)
+    const double ty = (static_cast<double>(qy) - origin_[1]) * inv_[1], tz = (static_cast<double>(qz) - origin_[2]) * inv_[2];
+    const double size[3] = {0.0, 1.0 / inv_[1], 1.0 / inv_[2]};
+    const auto gap2 = [&](double t, int c, int a) {
+      double d = 0.0;
+      if (c > 0 && t < c) d = c - t;
+      if (c < dims_[a] - 1 && t > c + 1) d = t - (c + 1);
+      d = std::max(0.0, d - 1e-6) * size[a];
+      return d * d;
+    };
+    double gy[kMaxSpan], gz[kMaxSpan];
+    const bool table = hi[1] - lo[1] < kMaxSpan && hi[2] - lo[2] < kMaxSpan;
+    if (table) {
+      for (int c = lo[1]; c <= hi[1]; ++c) gy[c - lo[1]] = gap2(ty, c, 1);
+      for (int c = lo[2]; c <= hi[2]; ++c) gz[c - lo[2]] = gap2(tz, c, 2);
+    }
+    for (int cz = lo[2]; cz <= hi[2]; ++cz) {
+      const double dz2 = table ? gz[cz - lo[2]] : gap2(tz, cz, 2);
+      for (int cy = lo[1]; cy <= hi[1]; ++cy) {
+        const double s = dz2 + (table ? gy[cy - lo[1]] : gap2(ty, cy, 1));
+        if (s > rr2) continue;
+        const std::size_t row = (static_cast<std::size_t>(cz) * dims_[1] + cy) * dims_[0];
+        if (start_[row + lo[0]] == start_[row + hi[0] + 1]) continue;  // an empty run (sparse swarms: most)
+        const double h = std::sqrt(rr2 - s);
+        const int x0 = std::max(lo[0], cellCoord(qx - h, 0)), x1 = std::min(hi[0], cellCoord(qx + h, 0));
+        f(start_[row + x0], start_[row + x1 + 1]);
+      }
+    }
+  }
+
   // rows of cells: row = cz * dim(1) + cy, for row < rowCount()
   std::size_t rowCount() const { return static_cast<std::size_t>(dims_[1]) * dims_[2]; }
   // call f(c, runs, nRuns) for every non-empty cell c of `row`, in x order, where runs[2 i], runs[2 i + 1]
@@ -210,6 +251,7 @@ class UniformGrid {
   // in double, so they are exact to ~1e-12 cells; the 1e-6 slack makes a radius
   // equal to the cell edge search two cells, while a radius of minCell (cells
   // are built 1e-5 wider) searches one.
+  static constexpr int kMaxSpan = 16;  // forEachRunInBall's tables of gaps per row
   int spanFor(float r, int axis) const {
     return static_cast<int>(std::floor(static_cast<double>(r) * inv_[axis] * (1.0 + 1e-6))) + 1;
   }

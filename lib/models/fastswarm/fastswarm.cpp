@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <utility>
 
 #include "core/error.hpp"
 #include "core/lanes.hpp"
@@ -87,6 +88,7 @@ struct Scratch {
   std::vector<float> lx, ly, lz, dx, dy, dz, dr;  // stimuli: lures' directions, dangers' centres and radii
   std::vector<float> lower;  // the candidates' lower bounds
   std::vector<std::uint32_t> runs;  // the grid's runs [begin, end) of one agent's query
+  std::size_t scanned = 0;  // points of the grid's runs read this step
   // room for `more` further entries in each zone, and a whole vector past them
   void reserveZones(std::size_t more) {
     const std::size_t need = std::max(nRep, nAtt) + more + 16;
@@ -122,7 +124,25 @@ struct ZoneInput {
   std::size_t n;
   std::uint32_t self;
   float qx, qy, qz, rep2, att12, r2, dt;
+  bool clip;  // runs cut to the ball (UniformGrid::forEachRunInBall) rather than whole rows of the cube
 };
+
+// f(begin, end) for the grid's runs that can hold the agent's neighbours within r, their points counted into
+// scanned: cut to the ball where that pays (z.clip: a dense swarm, where it skips a third of the points), else
+// forEachRun's rows of the cube (a small or sparse swarm: the cuts' square roots cost more than they save)
+template <typename F>
+__attribute__((always_inline)) inline void forEachZoneRun(const UniformGrid& grid, const ZoneInput& z, float r,
+                                                          std::size_t& scanned, F&& f) {
+  const auto g = [&](std::uint32_t b, std::uint32_t e) __attribute__((always_inline)) {
+    scanned += e - b;
+    f(b, e);
+  };
+  if (z.clip) {
+    grid.forEachRunInBall(z.qx, z.qy, z.qz, r, g);
+  } else {
+    grid.forEachRun(z.qx, z.qy, z.qz, r, g);
+  }
+}
 
 // the points [j, end) one at a time (a run's last points, fewer than a vector before the grid's end)
 __attribute__((always_inline)) inline void collectTail(const ZoneInput& z, std::uint32_t j, std::uint32_t end,
@@ -167,7 +187,7 @@ template <typename L>
 __attribute__((always_inline)) inline void collectZonesLanes(const UniformGrid& grid, const ZoneInput& z, float r,
                                                              Scratch& sc) {
   // (always inlined: a lambda does not inherit the AVX target, and a call would not inline the lanes)
-  grid.forEachRun(z.qx, z.qy, z.qz, r, [&](std::uint32_t b, std::uint32_t e) __attribute__((always_inline)) {
+  forEachZoneRun(grid, z, r, sc.scanned, [&](std::uint32_t b, std::uint32_t e) __attribute__((always_inline)) {
     collectRunLanes<L>(z, b, e, sc);
   });
 }
@@ -240,7 +260,7 @@ struct Avx2Pack : AvxLanes {
 };
 SWARMSIM_AVX2 __attribute__((flatten)) void collectZonesAvx2(const UniformGrid& grid, const ZoneInput& z, float r,
                                                              Scratch& sc) {
-  grid.forEachRun(z.qx, z.qy, z.qz, r,
+  forEachZoneRun(grid, z, r, sc.scanned,
                   [&](std::uint32_t b, std::uint32_t e) __attribute__((always_inline)) { packRun<Avx2Pack>(z, b, e, sc); });
 }
 // The same zones in the same order with AVX-512, with few branches: the runs are listed first (their total length
@@ -251,7 +271,7 @@ SWARMSIM_AVX2 __attribute__((flatten)) void collectZonesAvx2(const UniformGrid& 
 SWARMSIM_AVX512 __attribute__((flatten)) void collectZonesAvx512(const UniformGrid& grid, const ZoneInput& z,
                                                                         float r, Scratch& sc) {
   std::size_t runs = 0, total = 0;
-  grid.forEachRun(z.qx, z.qy, z.qz, r, [&](std::uint32_t b, std::uint32_t e) __attribute__((always_inline)) {
+  forEachZoneRun(grid, z, r, sc.scanned, [&](std::uint32_t b, std::uint32_t e) __attribute__((always_inline)) {
     if (2 * runs + 2 > sc.runs.size()) sc.runs.resize(2 * runs + 64);
     sc.runs[2 * runs] = b;
     sc.runs[2 * runs + 1] = e;
@@ -423,7 +443,7 @@ class Fastswarm final : public Model {
       // the zones, in the grid's (deterministic) order: repulsion within d_rep (predicted positions),
       // attraction from d_att,1 to d_att,2 (current positions)
       ZoneInput zin{sx, sy, sz, vx_.data(), vy_.data(), vz_.data(), n, static_cast<std::uint32_t>(k), sx[k], sy[k], sz[k],
-                    rep2, att12, dAtt2 * dAtt2, dt};
+                    rep2, att12, dAtt2 * dAtt2, dt, clipRuns_};
       collectZones(laneKind, grid_, zin, dAtt2, sc);
       seen_.forEachNear(sx[k], sy[k], sz[k], dAtt2, [&](float px, float py, float pz, float ux, float uy, float uz, float d2) {
         addToZones(sc, d2, rep2, att12, px, py, pz, ux, uy, uz, dt);
@@ -489,6 +509,11 @@ class Fastswarm final : public Model {
       next_.pz[k] = in.p.z() + v.z() * dt;
     });
     s.swapStorage(next_);
+    // the next step cuts the runs to the ball if this step read more than 400 points per agent (the same choice
+    // for any thread count; either way the same zones in the same order)
+    std::size_t scanned = 0;
+    for (Scratch& x : scratch_) scanned += std::exchange(x.scanned, 0);
+    clipRuns_ = static_cast<double>(scanned) > 400.0 * static_cast<double>(n);
     stepsAgents_ += n;
   }
 
@@ -552,6 +577,7 @@ class Fastswarm final : public Model {
   std::uint64_t stepsAgents_ = 0;           // agent steps since the last frame
   std::vector<std::int64_t> current_;  // by agent id: the sample it flies (successors only; -1: none yet)
   std::vector<Scratch> scratch_;
+  bool clipRuns_ = false;  // the zones' runs cut to the ball (a dense swarm; set from the last step's reads)
   SwarmState next_;
 };
 
