@@ -212,6 +212,12 @@ struct Avx2Bound : AvxLanes {
 // and the order of the sums, with room to spare (the distances in the exponents are bounded below by themselves)
 inline float boundMargin(const EnergyParams& p) { return 1e-4f + 4e-6f * p.rho; }
 
+// the scratch of argminEnergyBounded for n candidates: their bounds (n rounded up to whole 16-float vectors, on a
+// 64-byte boundary), then the wide lanes' table of exponents, up to nine rows of that length
+constexpr std::size_t kBoundRows = 9;
+inline std::size_t boundTableOffset(std::size_t n) { return (n + 31) / 16 * 16; }
+inline std::size_t boundScratchSize(std::size_t n) { return boundTableOffset(n) * (1 + kBoundRows) + 16; }
+
 // the lower bounds of the candidates [first, first + n) into out[0, n) and their least value: the own terms
 // (eq. 7, 9, 10, 13, 14, the lures of eq. 11) less the margin, plus the interaction's bound (the factors f times
 // the energies of no move rep0, oa0, danger0, as in argminEnergyBounded). What does not depend on the candidate
@@ -221,7 +227,7 @@ template <typename L>
 __attribute__((always_inline)) inline float boundsWide(const AgentInput& in, const Candidates& c,
                                                        const BoundFactors& f, std::size_t first, std::size_t n,
                                                        const EnergyParams& p, float rep0, float oa0, float danger0,
-                                                       float* out) {
+                                                       float* out, float* ts) {
   using V = typename L::V;
   constexpr float kLog2e = 1.44269504f;  // e^{ρ d} = 2^{ρ log2(e) d}
   // ρ log2(e) d <= 126 (the exponents scale2 takes) for every d <= 2.01, the longest distance between unit or
@@ -277,24 +283,30 @@ __attribute__((always_inline)) inline float boundsWide(const AgentInput& in, con
   // a' = (v − v_t) / Δt, exactly zero where the exact terms' is (v = v_t): their â' is zero there
   const V bx = L::set1(in.v.x()), by = L::set1(in.v.y()), bz = L::set1(in.v.z());
   const V vRep = L::set1(rep0), vOa = L::set1(oa0), vDanger = L::set1(danger0);
-  V least = L::set1(std::numeric_limits<float>::infinity());
+  // Two passes over the candidates, each with a short chain of dependent operations per block, so that the
+  // processor overlaps many blocks (one pass of the whole chain, about 30 operations deep, kept it waiting):
+  // first every term's exponent into `ts` (a table of stride n rounded up to whole vectors) and what needs no
+  // e^x (|a'| against the sample's |a|, the interaction's bound, less the slack) into out; then the sums of
+  // w 2^t, the margin and the least bound.
+  const std::size_t stride = (n + L::kWidth - 1) / L::kWidth * L::kWidth;
+  const std::size_t slots = terms + (acc ? 1 : 0);
   for (std::size_t b = 0; b < n; b += L::kWidth) {
     const std::size_t k = first + b, m = n - b;
     const V ux = L::load(c.ux.data() + k, m), uy = L::load(c.uy.data() + k, m), uz = L::load(c.uz.data() + k, m);
     const V uu = L::fma(ux, ux, L::fma(uy, uy, L::mul(uz, uz)));
-    V e = zero;
     for (std::size_t t = 0; t < terms; ++t) {
       const V d2 = L::fma(ux, tx[t], L::fma(uy, ty[t], L::fma(uz, tz[t], L::add(uu, tc[t]))));
-      e = term(tw[t], scaledRoot(d2), e);
+      L::store(ts + t * stride + b, scaledRoot(d2), L::kWidth);
     }
+    V rest = zero;
     for (std::size_t j = lureFrom; j < in.lures; ++j) {
       const float ax = in.lureX[j], ay = in.lureY[j], az = in.lureZ[j];
       const V d2 = L::fma(ux, L::set1(-2.0f * ax),
                           L::fma(uy, L::set1(-2.0f * ay),
                                  L::fma(uz, L::set1(-2.0f * az), L::add(uu, L::set1(ax * ax + ay * ay + az * az - 2e-6f)))));
-      e = term(L::set1(p.w.env), scaledRoot(d2), e);
+      rest = term(L::set1(p.w.env), scaledRoot(d2), rest);
     }
-    V slack = zero;
+    rest = L::mul(rest, keep);
     if (acc) {
       const V ax = L::mul(L::sub(L::load(c.vx.data() + k, m), bx), invDt);
       const V ay = L::mul(L::sub(L::load(c.vy.data() + k, m), by), invDt);
@@ -309,16 +321,25 @@ __attribute__((always_inline)) inline float boundsWide(const AgentInput& in, con
       const V dy = L::fnma(ay, inv, L::load(c.by.data() + k, m));
       const V dz = L::fnma(az, inv, L::load(c.bz.data() + k, m));
       const V d2 = L::fma(dx, dx, L::fma(dy, dy, L::fma(dz, dz, L::set1(-2e-6f))));  // (2e-6: â' is rounded)
-      e = term(wAcc, scaledRoot(d2), e);
-      e = L::fma(wAcc, L::abs(L::sub(mag, L::load(c.amag.data() + k, m))), e);
-      // this |a'| is within a few units of rounding of the exact terms' (which divide by Δt and take a square
+      L::store(ts + terms * stride + b, scaledRoot(d2), L::kWidth);
+      // |a'| here is within a few units of rounding of the exact terms' (which divide by Δt and take a square
       // root): w_acc 1e-6 |a'| covers the difference
-      slack = L::mul(slackAcc, mag);
+      rest = L::fma(L::mul(wAcc, keep), L::abs(L::sub(mag, L::load(c.amag.data() + k, m))), rest);
+      rest = L::fnma(slackAcc, mag, rest);
     }
-    V lb = L::sub(L::mul(e, keep), slack);
-    lb = L::fma(L::load(f.rep.data() + k, m), vRep, lb);
-    lb = L::fma(L::load(f.oa.data() + k, m), vOa, lb);
-    lb = L::fma(L::load(f.danger.data() + k, m), vDanger, lb);
+    rest = L::fma(L::load(f.rep.data() + k, m), vRep, rest);
+    rest = L::fma(L::load(f.oa.data() + k, m), vOa, rest);
+    rest = L::fma(L::load(f.danger.data() + k, m), vDanger, rest);
+    L::store(out + b, rest, m);
+  }
+  V wk[kTable + 1];  // the weights with the margin
+  for (std::size_t t = 0; t < terms; ++t) wk[t] = L::mul(tw[t], keep);
+  if (acc) wk[terms] = L::mul(wAcc, keep);
+  V least = L::set1(std::numeric_limits<float>::infinity());
+  for (std::size_t b = 0; b < n; b += L::kWidth) {
+    const std::size_t m = n - b;
+    V lb = L::load(out + b, m);
+    for (std::size_t t = 0; t < slots; ++t) lb = term(wk[t], L::load(ts + t * stride + b, L::kWidth), lb);
     L::store(out + b, lb, m);
     least = L::min(least, L::fillFrom(lb, m, std::numeric_limits<float>::infinity()));
   }
@@ -333,7 +354,9 @@ __attribute__((always_inline)) inline std::size_t argminWide(const AgentInput& i
                                                              std::size_t last, const EnergyParams& p, float rep0,
                                                              float oa0, float danger0, float* lower, float* best) {
   const std::size_t n = last - first;
-  const float startBound = boundsWide<L>(in, c, f, first, n, p, rep0, oa0, danger0, lower);
+  // the exponents' table after the bounds (argminEnergyBounded sizes `lower` for both)
+  float* ts = lower + boundTableOffset(n);
+  const float startBound = boundsWide<L>(in, c, f, first, n, p, rep0, oa0, danger0, lower, ts);
   std::size_t start = 0;
   for (std::size_t b = 0; b < n; b += L::kWidth) {  // the first of the least
     const unsigned eq = L::eq(L::load(lower + b, n - b), L::set1(startBound), n - b);
@@ -555,7 +578,7 @@ std::size_t argminEnergyBounded(const AgentInput& in, const Candidates& c, const
       danger0 += p.w.env * std::exp(p.rho * (1.0f - d / p.dDanger));
     }
   }
-  lower.resize(last - first + kLanes);
+  lower.resize(boundScratchSize(last - first));
 #if SWARMSIM_X86_LANES
   if (lanes == SearchLanes::kAvx512) return argminAvx512(in, c, f, first, last, p, rep0, oa0, danger0, lower.data(), best);
   if (lanes == SearchLanes::kAvx2Fma) return argminAvx2(in, c, f, first, last, p, rep0, oa0, danger0, lower.data(), best);
