@@ -439,23 +439,31 @@ SWARMSIM_AVX __attribute__((flatten)) float zoneSumAvx(float qx, float qy, float
 }
 
 // zoneSumAvx's sum (the same bits): e^x of sixteen points at a time, their two halves added to the eight lanes'
-// sums one after the other, as the eight-lane loop adds them
+// sums one after the other, as the eight-lane loop adds them; the last block too (no scalar tail)
 SWARMSIM_AVX512 __attribute__((flatten)) float zoneSumAvx512(float qx, float qy, float qz, const float* x,
                                                               const float* y, const float* z, std::size_t n, float a,
                                                               float b) {
   using W = Avx512Lanes;
   const W::V vqx = W::set1(qx), vqy = W::set1(qy), vqz = W::set1(qz), va = W::set1(a), vb = W::set1(b);
   AvxLanes::V acc = AvxLanes::set1(0.0f);
-  std::size_t j = 0;
-  for (; j + 16 <= n; j += 16) {
-    const W::V dx = W::sub(vqx, W::load(x + j)), dy = W::sub(vqy, W::load(y + j)), dz = W::sub(vqz, W::load(z + j));
+  for (std::size_t j = 0; j < n; j += 16) {
+    // the last block by masked loads, its lanes past n zero: adding zero to a (non-negative) sum changes no bit,
+    // so this is the eight-lane loop's sum, its padded tail included
+    const __mmask16 live = static_cast<__mmask16>(firstLanes(n - j, 16));
+    const W::V px = {_mm512_maskz_loadu_ps(live, x + j)}, py = {_mm512_maskz_loadu_ps(live, y + j)};
+    const W::V pz = {_mm512_maskz_loadu_ps(live, z + j)};
+    const W::V dx = W::sub(vqx, px), dy = W::sub(vqy, py), dz = W::sub(vqz, pz);
     const W::V d = W::sqrt(W::add(W::add(W::mul(dx, dx), W::mul(dy, dy)), W::mul(dz, dz)));
-    const W::V e = expLanes<W>(W::add(va, W::mul(vb, d)));
+    const W::V e = {_mm512_maskz_mov_ps(live, expLanes<W>(W::add(va, W::mul(vb, d))).a)};
     AvxLanes::V lo, hi;
     W::halves(e, lo, hi);
     acc = AvxLanes::add(AvxLanes::add(acc, lo), hi);
   }
-  return zoneSumFrom<AvxLanes>(qx, qy, qz, x, y, z, n, a, b, j, acc);
+  float part[kLanes];
+  AvxLanes::store(part, acc);
+  float sum = 0.0f;
+  for (const float v : part) sum += v;
+  return sum;
 }
 
 // AVX-512 for the sums where laneSet() takes it (as the environment was when first asked: they run many times per
