@@ -288,7 +288,10 @@ SWARMSIM_AVX512 __attribute__((flatten)) void collectZonesAvx512(const UniformGr
   const std::uint32_t* run = sc.runs.data();
   for (std::size_t i = 0; i < runs; ++i) {
     const std::uint32_t b = run[2 * i], e = run[2 * i + 1];
-    for (std::uint32_t j = b; j < e; j += 16) {
+    // one block even for an empty run (all lanes off): no branch on whether the run is empty, which a sparse
+    // swarm's rows make at random; a run longer than a vector loops
+    std::uint32_t j = b;
+    do {
       const std::uint32_t left = e - j;
       __mmask16 live = static_cast<__mmask16>(left >= 16 ? 0xffffu : (1u << left) - 1u);
       const std::uint32_t self = z.self - j;
@@ -314,7 +317,8 @@ SWARMSIM_AVX512 __attribute__((flatten)) void collectZonesAvx512(const UniformGr
       const auto nr = static_cast<unsigned>(__builtin_popcount(rep)), na = static_cast<unsigned>(__builtin_popcount(att));
       rx += nr, ry += nr, rz += nr;
       ax += na, ay += na, az += na;
-    }
+      j += 16;
+    } while (j < e);
   }
   sc.nRep = static_cast<std::size_t>(rx - sc.rx.data());
   sc.nAtt = static_cast<std::size_t>(ax - sc.ax.data());
