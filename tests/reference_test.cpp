@@ -258,6 +258,7 @@ TEST_CASE("reference: the group of a speed is the last group starting at or belo
   Reference plain = r;  // without groupFloor: speeds read through groupStart
   r.indexGroups();
   REQUIRE(r.groupFloor.size() == r.groups());
+  REQUIRE(r.groupBin.size() == Reference::kGroupBins);  // the look-up table, then the exact steps
   const auto brute = [&](double s) {
     std::size_t g = 0;
     for (std::size_t k = 0; k < r.groups(); ++k) {
@@ -265,9 +266,9 @@ TEST_CASE("reference: the group of a speed is the last group starting at or belo
     }
     return g;
   };
-  for (int i = -20; i < 720; ++i) {
-    // below, at and between the sample speeds
-    const double s = 0.0025 * static_cast<double>(i);
+  for (int i = -20; i < 7200; ++i) {
+    // below, at and between the sample speeds (several per bin of the table)
+    const double s = 0.00025 * static_cast<double>(i);
     CHECK(r.groupOfSpeed(s) == brute(s));
     CHECK(plain.groupOfSpeed(s) == brute(s));
   }

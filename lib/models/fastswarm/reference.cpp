@@ -169,11 +169,29 @@ std::string sha256File(const std::string& path) {
 void Reference::indexGroups() {
   groupFloor.resize(groups());
   for (std::size_t g = 0; g < groupFloor.size(); ++g) groupFloor[g] = speed[static_cast<std::size_t>(groupStart[g])];
+  // the bins' table: bin k holds the group of the speed at its lower edge (by the search below, before the table)
+  groupBin.clear();
+  if (groupFloor.size() < 2 || !(groupFloor.back() > groupFloor.front())) return;
+  binScale = static_cast<double>(kGroupBins) / (groupFloor.back() - groupFloor.front());
+  std::vector<std::uint32_t> table(kGroupBins);
+  for (std::size_t k = 0; k < kGroupBins; ++k) {
+    table[k] = static_cast<std::uint32_t>(groupOfSpeed(groupFloor.front() + static_cast<double>(k) / binScale));
+  }
+  groupBin = std::move(table);
 }
 
 std::size_t Reference::groupOfSpeed(double s) const {
   const std::size_t g = groups();
   if (g == 0) return 0;
+  if (groupBin.size() == kGroupBins && groupFloor.size() == g) {
+    // the bin's group, then the few steps to the exact answer (either way: the bin's edge is rounded)
+    if (!(s >= groupFloor.front())) return 0;  // (NaN too, as the search gives)
+    const double t = (s - groupFloor.front()) * binScale;
+    std::size_t k = groupBin[t < static_cast<double>(kGroupBins - 1) ? static_cast<std::size_t>(t) : kGroupBins - 1];
+    while (k + 1 < g && groupFloor[k + 1] <= s) ++k;
+    while (k > 0 && groupFloor[k] > s) --k;
+    return k;
+  }
   // the last group whose first sample is not faster than s (0 if none): the answer lies in [lo, lo + len); each
   // halving is a conditional move, not a branch (which the agents' speeds would take at random)
   const bool indexed = groupFloor.size() == g;

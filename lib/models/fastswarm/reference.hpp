@@ -50,6 +50,10 @@ struct Reference {
   std::int64_t groupSize = 0;      // samples per speed group (the last may hold more)
   std::vector<std::int64_t> groupStart;  // group g is samples [groupStart[g], groupStart[g + 1])
   std::vector<double> groupFloor;        // speed of each group's first sample (indexGroups; not stored in files)
+  // indexGroups' look-up of groupOfSpeed: kGroupBins equal bins of speed from the first group's floor to the last's
+  static constexpr std::size_t kGroupBins = 1024;
+  std::vector<std::uint32_t> groupBin;  // per bin, the group of its lower edge
+  double binScale = 0.0;                // bins per m/s
   // the filter as applied
   double fence = 0.0;              // Tukey fence factor (0: none)
   double maxSpeed = 0.0;           // explicit bounds (0: none), m/s and m/s^2
@@ -63,8 +67,8 @@ struct Reference {
   std::size_t groups() const { return groupStart.empty() ? 0 : groupStart.size() - 1; }
   // the group whose speed range holds s (the nearest one outside the data's range)
   std::size_t groupOfSpeed(double s) const;
-  // fills groupFloor from speed and groupStart (buildReference and readReference do; without it, groupOfSpeed
-  // reads the same speeds through groupStart)
+  // fills groupFloor and groupBin from speed and groupStart (buildReference and readReference do; without them,
+  // groupOfSpeed searches the same speeds through groupStart)
   void indexGroups();
 };
 
