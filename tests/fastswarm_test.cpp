@@ -122,7 +122,8 @@ TEST_CASE("fastswarm: the argmin is the brute-force minimum of E over the same c
   for (int trial = 0; trial < 50; ++trial) {
     std::vector<float> rx, ry, rz, ax, ay, az;
     for (int j = 0; j < 3; ++j) rx.push_back(0.05f * u(rng)), ry.push_back(0.05f * u(rng)), rz.push_back(0.05f * u(rng));
-    for (int j = 0; j < 12; ++j) ax.push_back(2 * u(rng)), ay.push_back(2 * u(rng)), az.push_back(2 * u(rng));
+    // 12 to 50 attraction neighbours: one vector and a tail, several vectors, whole vectors
+    for (int j = 0; j < 12 + (trial * 7) % 39; ++j) ax.push_back(2 * u(rng)), ay.push_back(2 * u(rng)), az.push_back(2 * u(rng));
     AgentInput in;
     in.v = Vec3(0.4f * g(rng), 0.4f * g(rng), 0.4f * g(rng));
     in.vhat = unit(in.v);

@@ -346,14 +346,73 @@ __attribute__((always_inline)) inline float boundsWide(const AgentInput& in, con
   return L::minOf(least);
 }
 
+// at most Σ_j e^{a + b |q − p_j|} over n points (a lower bound of the interaction sums, for the bounds only):
+// the bounds' 2^t (degree-5 polynomial, within 3.4e-6) of an exponent from the refined reciprocal square root
+// (|q − p_j| within about 1e-7 of itself, which moves e^x by at most 1e-7 |b| d), the lanes summed in any order,
+// and the whole lowered by 2e-4 plus 1e-7 per sixteen points for all of that
+template <typename L>
+__attribute__((always_inline)) inline float zoneSumBelow(float qx, float qy, float qz, const float* x, const float* y,
+                                                         const float* z, std::size_t n, float a, float b) {
+  using V = typename L::V;
+  constexpr float kLog2e = 1.44269504f;
+  const V vqx = L::set1(qx), vqy = L::set1(qy), vqz = L::set1(qz);
+  const V va = L::set1(a * kLog2e), vb = L::set1(b * kLog2e), tiny = L::set1(1e-30f);
+  const V half = L::set1(0.5f), threeHalves = L::set1(1.5f), hi = L::set1(126.0f), lo = L::set1(-126.0f);
+  const V c1 = L::set1(0.6931471805599453f), c2 = L::set1(0.2402265069591007f), c3 = L::set1(5.550410866482158e-2f);
+  const V c4 = L::set1(9.618129107628477e-3f), c5 = L::set1(1.3333558146428443e-3f), one = L::set1(1.0f);
+  const V zero = L::set1(0.0f);
+  V acc = zero;
+  for (std::size_t j = 0; j < n; j += L::kWidth) {
+    const std::size_t m = n - j;
+    const V dx = L::sub(L::load(x + j, m), vqx), dy = L::sub(L::load(y + j, m), vqy), dz = L::sub(L::load(z + j, m), vqz);
+    const V d2 = L::fma(dx, dx, L::fma(dy, dy, L::mul(dz, dz)));
+    const V r = L::max(d2, tiny);
+    V inv = L::rsqrt(r);
+    inv = L::mul(inv, L::fnma(L::mul(half, r), L::mul(inv, inv), threeHalves));
+    const V t = L::fma(vb, L::mul(d2, inv), va);
+    // below 2^-126, 2^-126 (t + 127) clamped to [0, 1], which is at most 2^t there; above 2^126, 2^126
+    const V under = L::min(L::max(L::add(t, L::set1(127.0f)), zero), one);
+    const V tc = L::min(L::max(t, lo), hi);
+    const V k = L::round(tc);
+    const V g = L::sub(tc, k);
+    const V g2 = L::mul(g, g);
+    const V q = L::fma(g2, L::fma(g2, L::fma(c5, g, c4), L::fma(c3, g, c2)), L::fma(c1, g, one));
+    acc = L::add(acc, L::fillFrom(L::mul(L::scale2(q, k), under), m, 0.0f));  // (lanes past n: zero)
+  }
+  float part[16];
+  L::store(part, acc, L::kWidth);
+  float sum = 0.0f;
+  for (std::size_t l = 0; l < L::kWidth; ++l) sum += part[l];
+  const float lower = 1.0f - 2e-4f - 1e-7f * static_cast<float>(n / 16 + 16);
+  return sum * std::max(lower, 0.5f);
+}
+
+// the interaction terms of eq. 4 and 6 at the agent's position (no move), bounded below (zoneSumBelow)
+template <typename L>
+__attribute__((always_inline)) inline void zoneTermsBelow(const AgentInput& in, const EnergyParams& p, float& rep,
+                                                          float& oa) {
+  rep = oa = 0.0f;
+  const float qx = in.p.x(), qy = in.p.y(), qz = in.p.z();
+  if (p.w.rep > 0.0f && in.rep > 0) {
+    rep = p.w.rep * zoneSumBelow<L>(qx, qy, qz, in.repX, in.repY, in.repZ, in.rep, p.rho, -p.rho / p.dRep) /
+          static_cast<float>(in.rep);
+  }
+  if (p.w.oa > 0.0f && in.att > 0) {
+    oa = p.w.oa * zoneSumBelow<L>(qx, qy, qz, in.attX, in.attY, in.attZ, in.att, -p.rho, p.rho / p.dAtt1) /
+         static_cast<float>(in.att);
+  }
+}
+
 // argminEnergyBounded on wide lanes: the bounds, the first candidate of the least bound, its exact E, then the
 // exact E of every candidate whose bound is not above the best E so far
 template <typename L>
 __attribute__((always_inline)) inline std::size_t argminWide(const AgentInput& in, const Candidates& c,
                                                              const BoundFactors& f, std::size_t first,
-                                                             std::size_t last, const EnergyParams& p, float rep0,
-                                                             float oa0, float danger0, float* lower, float* best) {
+                                                             std::size_t last, const EnergyParams& p,
+                                                             float danger0, float* lower, float* best) {
   const std::size_t n = last - first;
+  float rep0 = 0.0f, oa0 = 0.0f;  // the interaction at no move, bounded below on these lanes
+  zoneTermsBelow<L>(in, p, rep0, oa0);
   // the exponents' table after the bounds (argminEnergyBounded sizes `lower` for both)
   float* ts = lower + boundTableOffset(n);
   const float startBound = boundsWide<L>(in, c, f, first, n, p, rep0, oa0, danger0, lower, ts);
@@ -382,15 +441,15 @@ __attribute__((always_inline)) inline std::size_t argminWide(const AgentInput& i
 
 __attribute__((flatten)) SWARMSIM_AVX512 std::size_t argminAvx512(const AgentInput& in, const Candidates& c,
                                                                    const BoundFactors& f, std::size_t first,
-                                                                   std::size_t last, const EnergyParams& p, float rep0,
-                                                                   float oa0, float danger0, float* lower, float* best) {
-  return argminWide<Avx512Bound>(in, c, f, first, last, p, rep0, oa0, danger0, lower, best);
+                                                                   std::size_t last, const EnergyParams& p,
+                                                                   float danger0, float* lower, float* best) {
+  return argminWide<Avx512Bound>(in, c, f, first, last, p, danger0, lower, best);
 }
 __attribute__((flatten)) SWARMSIM_AVX2FMA std::size_t argminAvx2(const AgentInput& in, const Candidates& c,
                                                                  const BoundFactors& f, std::size_t first,
-                                                                 std::size_t last, const EnergyParams& p, float rep0,
-                                                                 float oa0, float danger0, float* lower, float* best) {
-  return argminWide<Avx2Bound>(in, c, f, first, last, p, rep0, oa0, danger0, lower, best);
+                                                                 std::size_t last, const EnergyParams& p,
+                                                                 float danger0, float* lower, float* best) {
+  return argminWide<Avx2Bound>(in, c, f, first, last, p, danger0, lower, best);
 }
 #endif
 
@@ -577,8 +636,6 @@ std::size_t argminEnergyBounded(const AgentInput& in, const Candidates& c, const
                                 SearchLanes lanes) {
   // the interaction energies at q = p (no move): each neighbour's distance changes by at most |v| Δt
   const bool avx = lanes != SearchLanes::kSse;
-  float rep0 = 0.0f, oa0 = 0.0f;
-  zoneTerms(avx, in, in.p, p, rep0, oa0);
   float danger0 = 0.0f;
   if (p.w.env > 0.0f && in.dangers > 0) {
     for (std::size_t j = 0; j < in.dangers; ++j) {
@@ -588,9 +645,11 @@ std::size_t argminEnergyBounded(const AgentInput& in, const Candidates& c, const
   }
   lower.resize(boundScratchSize(last - first));
 #if SWARMSIM_X86_LANES
-  if (lanes == SearchLanes::kAvx512) return argminAvx512(in, c, f, first, last, p, rep0, oa0, danger0, lower.data(), best);
-  if (lanes == SearchLanes::kAvx2Fma) return argminAvx2(in, c, f, first, last, p, rep0, oa0, danger0, lower.data(), best);
+  if (lanes == SearchLanes::kAvx512) return argminAvx512(in, c, f, first, last, p, danger0, lower.data(), best);
+  if (lanes == SearchLanes::kAvx2Fma) return argminAvx2(in, c, f, first, last, p, danger0, lower.data(), best);
 #endif
+  float rep0 = 0.0f, oa0 = 0.0f;
+  zoneTerms(avx, in, in.p, p, rep0, oa0);
   // lower bounds: the own terms (on SIMD lanes, less a margin for their e^x and the order of the sums; the
   // rest exactly as energyTerms), the interaction bounded below
   std::size_t start = first;
