@@ -207,6 +207,27 @@ struct Avx2Bound : AvxLanes {
   }
 };
 
+// the wide lanes' 2^t for t in [-126, 126]: 2^round(t) times the degree-5 Taylor polynomial of 2^f, f = t − round(t)
+// in [-1/2, 1/2] (within 3.4e-6), as (1 + c1 f) + f² ((c2 + c3 f) + f² (c4 + c5 f)): a shorter chain than Horner's
+template <typename L>
+__attribute__((always_inline)) inline typename L::V pow2Wide(typename L::V t) {
+  using V = typename L::V;
+  const V k = L::round(t);
+  const V g = L::sub(t, k);
+  const V g2 = L::mul(g, g);
+  const V lo = L::fma(L::set1(0.6931471805599453f), g, L::set1(1.0f));
+  const V mid = L::fma(L::set1(5.550410866482158e-2f), g, L::set1(0.2402265069591007f));
+  const V top = L::fma(L::set1(1.3333558146428443e-3f), g, L::set1(9.618129107628477e-3f));
+  return L::scale2(L::fma(g2, L::fma(g2, top, mid), lo), k);
+}
+
+// 1 / sqrt(x) for x > 0 on the wide lanes: the reciprocal square root and one Newton step
+template <typename L>
+__attribute__((always_inline)) inline typename L::V invSqrtWide(typename L::V x) {
+  const typename L::V r = L::rsqrt(x);
+  return L::mul(r, L::fnma(L::mul(L::set1(0.5f), x), L::mul(r, r), L::set1(1.5f)));
+}
+
 // how far below the exact own terms the wide lanes' bound is put, relative to it: their e^x (degree-5 Taylor
 // polynomial of 2^f for f in [-1/2, 1/2], within 3.4e-6; plus the rounding of x log2 e, below 4e-6 for x <= 40)
 // and the order of the sums, with room to spare (the distances in the exponents are bounded below by themselves)
@@ -234,7 +255,7 @@ __attribute__((always_inline)) inline float boundsWide(const AgentInput& in, con
   // zero vectors with rounding; a larger ρ clamps
   const bool clamp = p.rho * kLog2e * 2.01f > 126.0f;
   const V keep = L::set1(1.0f - boundMargin(p));
-  const V invDt = L::set1(1.0f / p.dt), half = L::set1(0.5f), threeHalves = L::set1(1.5f), tiny = L::set1(1e-30f);
+  const V invDt = L::set1(1.0f / p.dt), tiny = L::set1(1e-30f);
   const V hi = L::set1(126.0f), zero = L::set1(0.0f);
   // ρ log2(e) times at most sqrt(x) for x >= 0 (x <= 0: about 0), from the reciprocal square root lowered by its
   // error bound
@@ -244,16 +265,9 @@ __attribute__((always_inline)) inline float boundsWide(const AgentInput& in, con
     return L::mul(x, L::mul(L::rsqrt(x), rhoBelow));
   };
   // w 2^t for t in [0, 126] (ρ log2(e) d), added to acc
-  const V c1 = L::set1(0.6931471805599453f), c2 = L::set1(0.2402265069591007f), c3 = L::set1(5.550410866482158e-2f);
-  const V c4 = L::set1(9.618129107628477e-3f), c5 = L::set1(1.3333558146428443e-3f), one = L::set1(1.0f);
   const auto term = [&](V w, V t, V acc) __attribute__((always_inline)) {
     if (clamp) t = L::min(t, hi);
-    const V k = L::round(t);
-    const V g = L::sub(t, k);  // in [-0.5, 0.5]
-    // 1 + c1 g + ... + c5 g^5 as (1 + c1 g) + g^2 ((c2 + c3 g) + g^2 (c4 + c5 g)): a shorter chain than Horner's
-    const V g2 = L::mul(g, g);
-    const V q = L::fma(g2, L::fma(g2, L::fma(c5, g, c4), L::fma(c3, g, c2)), L::fma(c1, g, one));
-    return L::fma(w, L::scale2(q, k), acc);
+    return L::fma(w, pow2Wide<L>(t), acc);
   };
   // the terms w e^{ρ |u − a|} toward fixed unit (or zero) vectors a: |u − a|² = |u|² + |a|² − 2 u·a, less 2e-6
   // for its rounding, as |u|² + C + u·A with A = −2 a and C = |a|² − 2e-6
@@ -313,9 +327,7 @@ __attribute__((always_inline)) inline float boundsWide(const AgentInput& in, con
       const V az = L::mul(L::sub(L::load(c.vz.data() + k, m), bz), invDt);
       const V m2 = L::fma(ax, ax, L::fma(ay, ay, L::mul(az, az)));
       // 1 / |a'| from the reciprocal square root and one Newton step; |a'| = |a'|² / |a'| (zero for a' = 0)
-      const V x = L::max(m2, tiny);
-      V inv = L::rsqrt(x);
-      inv = L::mul(inv, L::fnma(L::mul(half, x), L::mul(inv, inv), threeHalves));
+      const V inv = invSqrtWide<L>(L::max(m2, tiny));
       const V mag = L::mul(m2, inv);
       const V dx = L::fnma(ax, inv, L::load(c.bx.data() + k, m));  // b − â' (its norm is the same)
       const V dy = L::fnma(ay, inv, L::load(c.by.data() + k, m));
@@ -357,27 +369,17 @@ __attribute__((always_inline)) inline float zoneSumBelow(float qx, float qy, flo
   constexpr float kLog2e = 1.44269504f;
   const V vqx = L::set1(qx), vqy = L::set1(qy), vqz = L::set1(qz);
   const V va = L::set1(a * kLog2e), vb = L::set1(b * kLog2e), tiny = L::set1(1e-30f);
-  const V half = L::set1(0.5f), threeHalves = L::set1(1.5f), hi = L::set1(126.0f), lo = L::set1(-126.0f);
-  const V c1 = L::set1(0.6931471805599453f), c2 = L::set1(0.2402265069591007f), c3 = L::set1(5.550410866482158e-2f);
-  const V c4 = L::set1(9.618129107628477e-3f), c5 = L::set1(1.3333558146428443e-3f), one = L::set1(1.0f);
-  const V zero = L::set1(0.0f);
+  const V hi = L::set1(126.0f), lo = L::set1(-126.0f), zero = L::set1(0.0f), one = L::set1(1.0f);
   V acc = zero;
   for (std::size_t j = 0; j < n; j += L::kWidth) {
     const std::size_t m = n - j;
     const V dx = L::sub(L::load(x + j, m), vqx), dy = L::sub(L::load(y + j, m), vqy), dz = L::sub(L::load(z + j, m), vqz);
     const V d2 = L::fma(dx, dx, L::fma(dy, dy, L::mul(dz, dz)));
-    const V r = L::max(d2, tiny);
-    V inv = L::rsqrt(r);
-    inv = L::mul(inv, L::fnma(L::mul(half, r), L::mul(inv, inv), threeHalves));
-    const V t = L::fma(vb, L::mul(d2, inv), va);
+    const V t = L::fma(vb, L::mul(d2, invSqrtWide<L>(L::max(d2, tiny))), va);
     // below 2^-126, 2^-126 (t + 127) clamped to [0, 1], which is at most 2^t there; above 2^126, 2^126
     const V under = L::min(L::max(L::add(t, L::set1(127.0f)), zero), one);
-    const V tc = L::min(L::max(t, lo), hi);
-    const V k = L::round(tc);
-    const V g = L::sub(tc, k);
-    const V g2 = L::mul(g, g);
-    const V q = L::fma(g2, L::fma(g2, L::fma(c5, g, c4), L::fma(c3, g, c2)), L::fma(c1, g, one));
-    acc = L::add(acc, L::fillFrom(L::mul(L::scale2(q, k), under), m, 0.0f));  // (lanes past n: zero)
+    const V e = L::mul(pow2Wide<L>(L::min(L::max(t, lo), hi)), under);
+    acc = L::add(acc, L::fillFrom(e, m, 0.0f));  // (lanes past n: zero)
   }
   float part[16];
   L::store(part, acc, L::kWidth);
