@@ -27,6 +27,8 @@ struct alignas(64) NearScratch {
   std::vector<std::uint32_t> cj, ids;
   std::vector<std::uint32_t> conIdx, nearIdx, mdeIdx;  // classifyCandidates' output
   std::vector<std::uint64_t> sortKeys;                 // sortById's (near_list.hpp)
+  std::size_t rebuilds = 0;  // near lists this thread built from the grid (a statistic: one count per thread,
+                             // so that no cache line is shared between the cores)
   void reserve(std::size_t n);
   // room for n candidates (padded to whole lanes) in every array
   void reserveCandidates(std::size_t n) {

@@ -191,7 +191,6 @@ const std::uint32_t* NearLists::keep(std::uint32_t from, std::uint32_t k, const 
 const std::uint32_t* NearLists::build(std::uint32_t k, float r, const UniformGrid& grid, const std::uint32_t* idOf,
                                       std::vector<std::uint32_t>& scratch, std::vector<std::uint64_t>& keys,
                                       std::size_t& m, LaneSet lanes) {
-  rebuilt_.fetch_add(1, std::memory_order_relaxed);
   const float qx = grid.sortedX()[k], qy = grid.sortedY()[k], qz = grid.sortedZ()[k];
   scratch.clear();
   if (grid.size() > 0) {

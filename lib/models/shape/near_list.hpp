@@ -19,7 +19,6 @@
 // they need, in id order, so what they compute depends on the positions alone,
 // never on when a list was built (a resumed run, which starts without lists,
 // equals an uninterrupted one; any thread count gives the same bits).
-#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <utility>
@@ -85,9 +84,6 @@ class NearLists {
     std::swap(last_, next_);
   }
 
-  // lists built from the grid since the last call (a statistic; reads and resets)
-  std::size_t takeRebuilds() { return rebuilt_.exchange(0); }
-
  private:
   struct Slots {
     std::vector<std::uint32_t> pos;   // n × capacity: sorted positions
@@ -101,7 +97,6 @@ class NearLists {
   double moved_ = 0.0;  // Σ of each step's largest move
   double lastMove_ = 0.0;
   Slots last_, next_;
-  std::atomic<std::size_t> rebuilt_{0};
 };
 
 }  // namespace swarmsim

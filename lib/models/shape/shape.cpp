@@ -393,6 +393,7 @@ class ShapeModel final : public Model {
         cover = std::min(rAtt, (1.0f + lists_.skin()) * std::max(need, lastReach));
         cover = std::max({cover, kh, mdReach});
         cand = lists_.build(static_cast<std::uint32_t>(k), cover, grid_, ids_.data(), ns.ids, ns.sortKeys, m, lanes);
+        ++ns.rebuilds;
       }
       std::size_t counts[3];
       std::size_t mk = 0;
@@ -415,6 +416,7 @@ class ShapeModel final : public Model {
         // fewer than K within the coverage, which is short of r_att: a wider list (rare)
         cover = std::min(rAtt, 1.5f * cover);
         cand = lists_.build(static_cast<std::uint32_t>(k), cover, grid_, ids_.data(), ns.ids, ns.sortKeys, m, lanes);
+        ++ns.rebuilds;
       }
       if (shaped) {  // F_con over its entries, packed in id order
         const std::size_t mc = counts[0];
@@ -628,7 +630,10 @@ class ShapeModel final : public Model {
       float move2 = 0.0f;
       for (std::size_t k = 0; k < n; ++k) move2 = std::max(move2, move2_[k]);
       lists_.advance(static_cast<double>(std::sqrt(move2)) * (1.0 + 1e-5) + 1e-7);
-      rebuilds_ += lists_.takeRebuilds();
+      for (NearScratch& ns : scratch_) {
+        rebuilds_ += ns.rebuilds;
+        ns.rebuilds = 0;
+      }
     }
     tMde_ += since(t0);
     s.swapStorage(next_);
