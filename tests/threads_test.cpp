@@ -116,3 +116,31 @@ TEST_CASE("The thread governor yields a CPU another process holds", "[threads]")
   swarmsim::setThreadAdaptation(true);
   swarmsim::requestThreads(swarmsim::defaultThreadCount());
 }
+
+TEST_CASE("parallelForBalanced visits every index once, and a thread done early takes the others' work",
+          "[threads]") {
+  const int saved = swarmsim::threadCount();
+  for (const int threads : {1, 2, 3}) {
+    swarmsim::setThreadCount(threads);
+    for (const std::size_t n : {std::size_t{0}, std::size_t{100}, std::size_t{5000}, std::size_t{20011}}) {
+      std::vector<int> visits(n, 0), by(n, -1);
+      // the first range's indices are slow: with 2 or more threads another thread finishes first and takes some
+      swarmsim::parallelForBalanced(n, 64, [&](std::size_t i) {
+        ++visits[i];
+        by[i] = swarmsim::threadIndex();
+        if (threads > 1 && i < n / static_cast<std::size_t>(threads) && n >= 5000) {
+          std::this_thread::sleep_for(std::chrono::microseconds(20));
+        }
+      });
+      for (std::size_t i = 0; i < n; ++i) REQUIRE(visits[i] == 1);
+      if (threads > 1 && n >= 5000) {
+        std::size_t helped = 0;  // indices of the first range that another thread did
+        for (std::size_t i = 0; i < n / static_cast<std::size_t>(threads); ++i) helped += by[i] != 0 ? 1 : 0;
+        CHECK(helped > 0);
+        // and the last range starts where schedule(static) starts it: with its own thread
+        CHECK(by[n - 1] != 0);
+      }
+    }
+  }
+  swarmsim::setThreadCount(saved);
+}

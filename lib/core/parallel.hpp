@@ -2,7 +2,9 @@
 // The one place parallel loops go through. Every body must write only to its
 // own index, so results do not depend on the number of threads.
 #include <algorithm>
+#include <atomic>
 #include <cstddef>
+#include <memory>
 
 #include <omp.h>
 
@@ -32,6 +34,44 @@ void parallelForDynamic(std::size_t n, std::size_t chunk, F&& body) {
   for (long long i = 0; i < count; ++i) body(static_cast<std::size_t>(i));
 }
 
+// as parallelFor: each thread takes the indices of its own contiguous range in order, `chunk` at a time (the
+// range libgomp's schedule(static) gives it, so it mostly reads what it wrote in the static loops before),
+// and a thread that has finished its range goes on with what is left of the others', a chunk at a time:
+// uneven work per index no longer leaves a thread waiting for the slowest range
+template <typename F>
+void parallelForBalanced(std::size_t n, std::size_t chunk, F&& body) {
+  const int threads = omp_get_max_threads();
+  if (n < kSerialBelow || threads < 2) {
+    for (std::size_t i = 0; i < n; ++i) body(i);
+    return;
+  }
+  struct alignas(64) Range {
+    std::atomic<std::size_t> next;  // the first index not yet taken
+    std::size_t end;
+  };
+  const auto t = static_cast<std::size_t>(threads);
+  const std::unique_ptr<Range[]> ranges(new Range[t]);
+  for (std::size_t r = 0; r < t; ++r) {  // schedule(static)'s split: the first n % t ranges one longer
+    const std::size_t size = n / t, extra = n % t;
+    const std::size_t begin = r * size + std::min(r, extra);
+    ranges[r].next.store(begin, std::memory_order_relaxed);
+    ranges[r].end = begin + size + (r < extra ? 1 : 0);
+  }
+  chunk = std::max<std::size_t>(1, chunk);
+#pragma omp parallel num_threads(threads)
+  {
+    const auto self = static_cast<std::size_t>(omp_get_thread_num());
+    for (std::size_t v = 0; v < t; ++v) {
+      Range& r = ranges[(self + v) % t];
+      for (;;) {
+        const std::size_t a = r.next.fetch_add(chunk, std::memory_order_relaxed);
+        if (a >= r.end) break;
+        const std::size_t b = std::min(r.end, a + chunk);
+        for (std::size_t i = a; i < b; ++i) body(i);
+      }
+    }
+  }
+}
 // Split [0, n) into one contiguous chunk per thread, in index order, and call
 // body(begin, end, chunk) once per chunk (chunk < chunkCount(n)); for per-thread
 // partial results combined afterwards in chunk order. Small n: one chunk.

@@ -497,8 +497,9 @@ class ShapeModel final : public Model {
 
     if (nearest) {
       // each thread takes one contiguous range of insects, the same as in the loops before and after this one:
-      // most of what it reads it wrote itself (another core's cache lines cost more than the uneven work)
-      parallelFor(n, [&](std::size_t k) {
+      // most of what it reads it wrote itself (another core's cache lines cost more than the uneven work), and
+      // a thread done with its own goes on with what is left of the other's
+      parallelForBalanced(n, 64, [&](std::size_t k) {
         NearScratch& ns = scratch_[static_cast<std::size_t>(threadIndex())];
         Vec3 fCon = Vec3::Zero();
         const Vec3 fInt = nearForces(k, ns, fCon);
