@@ -45,12 +45,12 @@ void parallelForBalanced(std::size_t n, std::size_t chunk, F&& body) {
     for (std::size_t i = 0; i < n; ++i) body(i);
     return;
   }
-  struct alignas(64) Range {
+  struct alignas(64) Share {
     std::atomic<std::size_t> next;  // the first index not yet taken
     std::size_t end;
   };
   const auto t = static_cast<std::size_t>(threads);
-  const std::unique_ptr<Range[]> ranges(new Range[t]);
+  const std::unique_ptr<Share[]> ranges(new Share[t]);
   for (std::size_t r = 0; r < t; ++r) {  // schedule(static)'s split: the first n % t ranges one longer
     const std::size_t size = n / t, extra = n % t;
     const std::size_t begin = r * size + std::min(r, extra);
@@ -62,7 +62,7 @@ void parallelForBalanced(std::size_t n, std::size_t chunk, F&& body) {
   {
     const auto self = static_cast<std::size_t>(omp_get_thread_num());
     for (std::size_t v = 0; v < t; ++v) {
-      Range& r = ranges[(self + v) % t];
+      Share& r = ranges[(self + v) % t];
       for (;;) {
         const std::size_t a = r.next.fetch_add(chunk, std::memory_order_relaxed);
         if (a >= r.end) break;
@@ -72,6 +72,7 @@ void parallelForBalanced(std::size_t n, std::size_t chunk, F&& body) {
     }
   }
 }
+
 // Split [0, n) into one contiguous chunk per thread, in index order, and call
 // body(begin, end, chunk) once per chunk (chunk < chunkCount(n)); for per-thread
 // partial results combined afterwards in chunk order. Small n: one chunk.

@@ -134,14 +134,14 @@ inline void classifyLanes(std::size_t m, float qx, float qy, float qz, float thr
 
 #if SWARMSIM_X86_LANES
 // the candidates' positions for gatherClassify: the sorted positions cand[e..e+7] (past m: the far row, in
-// no class) go to scratch.cj, and their 16-byte rows of xyz4 are transposed to three vectors
+// no class) go to scratch.cj, and the first 16 bytes of their rows are transposed to three vectors
 struct RowPositions {
   const std::uint32_t* cand;
   std::size_t m;
-  const float* xyz4;
+  const float* rows;
   std::uint32_t far;
   std::uint32_t* cj;
-  SWARMSIM_AVX2 __m128 row(std::uint32_t i) const { return _mm_loadu_ps(xyz4 + 4 * std::size_t{i}); }
+  SWARMSIM_AVX2 __m128 row(std::uint32_t i) const { return _mm_loadu_ps(rows + kRowFloats * std::size_t{i}); }
   SWARMSIM_AVX2 void operator()(std::size_t e, AvxLanes::V& x, AvxLanes::V& y, AvxLanes::V& z) const {
     __m256i pos;
     if (m - e >= kLanes) {
@@ -183,11 +183,11 @@ SWARMSIM_AVX2 __attribute__((flatten)) void classifyAvx2(std::size_t m, float qx
 }
 // classifyLanes<AvxLanes, true> of candidates given by sorted position (RowPositions)
 SWARMSIM_AVX2 __attribute__((flatten)) void gatherClassifyAvx2(std::size_t m, const std::uint32_t* cand,
-                                                               const float* xyz4, std::uint32_t far, float qx,
+                                                               const float* rows, std::uint32_t far, float qx,
                                                                float qy, float qz, float threshold, float near2,
                                                                float reach2, NearScratch& s, std::size_t counts[3]) {
   classifyLanes<AvxLanes, true>(m, qx, qy, qz, threshold, near2, reach2, s, counts,
-                                RowPositions{cand, m, xyz4, far, s.cj.data()});
+                                RowPositions{cand, m, rows, far, s.cj.data()});
 }
 __attribute__((flatten)) void constraintSse(const NearScratch& s, std::size_t m, float t, float c, float o[3][kLanes],
                                             int& n) {
@@ -268,12 +268,12 @@ void classifyCandidates(std::size_t m, const Vec3& q, float threshold, float nea
 #endif
 }
 
-void gatherClassify(std::size_t m, const std::uint32_t* cand, const float* xyz4, std::uint32_t far, const Vec3& q,
+void gatherClassify(std::size_t m, const std::uint32_t* cand, const float* rows, std::uint32_t far, const Vec3& q,
                     float threshold, float near2, float reach2, NearScratch& s, LaneSet lanes, std::size_t counts[3]) {
   s.reserveCandidates(padded(m));
 #if SWARMSIM_X86_LANES
   if (lanes == LaneSet::kAvx2 || lanes == LaneSet::kAvx512) {
-    gatherClassifyAvx2(m, cand, xyz4, far, q.x(), q.y(), q.z(), threshold, near2, reach2, s, counts);
+    gatherClassifyAvx2(m, cand, rows, far, q.x(), q.y(), q.z(), threshold, near2, reach2, s, counts);
     return;
   }
 #else
@@ -282,9 +282,9 @@ void gatherClassify(std::size_t m, const std::uint32_t* cand, const float* xyz4,
   for (std::size_t e = 0; e < m; ++e) {
     const std::uint32_t j = cand[e];
     s.cj[e] = j;
-    s.cx[e] = xyz4[4 * std::size_t{j}];
-    s.cy[e] = xyz4[4 * std::size_t{j} + 1];
-    s.cz[e] = xyz4[4 * std::size_t{j} + 2];
+    s.cx[e] = rows[kRowFloats * std::size_t{j}];
+    s.cy[e] = rows[kRowFloats * std::size_t{j} + 1];
+    s.cz[e] = rows[kRowFloats * std::size_t{j} + 2];
   }
   classifyCandidates(m, q, threshold, near2, reach2, s, lanes, counts);
 }

@@ -49,10 +49,32 @@ struct alignas(64) NearScratch {
 void classifyCandidates(std::size_t m, const Vec3& q, float threshold, float near2, float reach2, NearScratch& scratch,
                         LaneSet lanes, std::size_t counts[3]);
 
+// The rows gatherClassify reads: kRowFloats floats per sorted position, x, y, z, 0, then the velocity
+// vx, vy, vz, 0 (a neighbour's velocity comes in the cache line its position came in)
+constexpr std::size_t kRowFloats = 8;
+
+// floats whose first is at a cache line's start (rows of kRowFloats never straddle two lines); the storage
+// is kept between steps and grows only
+class AlignedFloats {
+ public:
+  float* resize(std::size_t n) {
+    if (store_.size() < n + 16) store_.resize(n + 16);
+    const auto at = reinterpret_cast<std::uintptr_t>(store_.data());
+    data_ = store_.data() + ((64 - at % 64) % 64) / sizeof(float);
+    return data_;
+  }
+  float* data() { return data_; }
+  const float* data() const { return data_; }
+
+ private:
+  std::vector<float> store_;
+  float* data_ = nullptr;
+};
+
 // classifyCandidates of the candidates at sorted positions cand[0, m), which go to scratch.cj: candidate
-// e's position is row cand[e] of xyz4 (x, y, z and a fourth float per sorted position), and row `far` holds
-// a point far from everything (the padding of the last lanes)
-void gatherClassify(std::size_t m, const std::uint32_t* cand, const float* xyz4, std::uint32_t far, const Vec3& q,
+// e's position is the first three floats of row cand[e] of `rows` (kRowFloats per sorted position), and row
+// `far` holds a point far from everything (the padding of the last lanes)
+void gatherClassify(std::size_t m, const std::uint32_t* cand, const float* rows, std::uint32_t far, const Vec3& q,
                     float threshold, float near2, float reach2, NearScratch& s, LaneSet lanes, std::size_t counts[3]);
 
 // F_con's sum (eq. 5) over scratch.dx/dy/dz/d2[0, m): Σ d̂ exp(−M² inv2s2) over the entries with 0 < |d| and

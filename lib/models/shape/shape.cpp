@@ -243,33 +243,31 @@ class ShapeModel final : public Model {
     const bool assigned = assign_.size() == n;
     err_.resize(n);
     speed_.resize(n);
-    // positions and velocities by sorted position also as rows of four floats (one cache line per
-    // neighbour where the near sums look them up), and a last position row far from everything
-    xyz4_.resize(4 * (n + 1));
+    // position and velocity of each sorted position also as one row of eight floats (near_kernel.hpp,
+    // kRowFloats), half a cache line: where the near sums look up a neighbour's position, its velocity comes
+    // with it. A last row at n is far from everything.
+    float* rows = rows_.resize(kRowFloats * (n + 1));
     newPos_.resize(n);
     std::atomic<bool> asLastStep{lastIds_.size() == n};  // every insect where last step wrote it
-    vel4_.resize(4 * n);
     const float* gx = grid_.sortedX().data();
     const float* gy = grid_.sortedY().data();
     const float* gz = grid_.sortedZ().data();
-    for (std::size_t a = 0; a < 3; ++a) xyz4_[4 * n + a] = 3.0e38f;
-    xyz4_[4 * n + 3] = 0.0f;
+    for (std::size_t a = 0; a < kRowFloats; ++a) rows[kRowFloats * n + a] = a < 3 ? 3.0e38f : 0.0f;
     parallelFor(n, [&](std::size_t k) {
       const std::uint32_t i = order[k];
       vx_[k] = s.vx[i];
       vy_[k] = s.vy[i];
       vz_[k] = s.vz[i];
-      float* row = xyz4_.data() + 4 * k;
+      float* row = rows + kRowFloats * k;
       row[0] = gx[k];
       row[1] = gy[k];
       row[2] = gz[k];
       row[3] = 0.0f;
+      row[4] = vx_[k];
+      row[5] = vy_[k];
+      row[6] = vz_[k];
+      row[7] = 0.0f;
       newPos_[i] = static_cast<std::uint32_t>(k);  // last step's sorted position (the state index) -> this step's
-      float* vel = vel4_.data() + 4 * k;
-      vel[0] = vx_[k];
-      vel[1] = vy_[k];
-      vel[2] = vz_[k];
-      vel[3] = 0.0f;
       ids_[k] = s.id[i];
       // the insect's sample: where last step left it when the state is as last step wrote it (it is, but
       // for the step after a resume), else through the id (a random access)
@@ -401,7 +399,7 @@ class ShapeModel final : public Model {
         // their sorted positions and positions (the one random access of each), offsets, squared distances,
         // and who counts for F_con, F_int (within the first radius) and MDE
         const float reach = std::min({cover, rAtt, guess});
-        gatherClassify(m, cand, xyz4_.data(), static_cast<std::uint32_t>(n), Vec3(qx, qy, qz), kh, reach * reach,
+        gatherClassify(m, cand, rows, static_cast<std::uint32_t>(n), Vec3(qx, qy, qz), kh, reach * reach,
                        mdReach2, ns, lanes, counts);
         mk = counts[1];
         if (mk < K && reach < std::min(cover, rAtt)) {  // fewer than K within the first radius: all of cover
@@ -447,7 +445,7 @@ class ShapeModel final : public Model {
       const float vkx = vx_[k], vky = vy_[k], vkz = vz_[k];
       for (std::size_t q = 0; q < mk; ++q) {
         const std::uint32_t e = keyIndex(keys[q]);
-        const float* vj = vel4_.data() + 4 * std::size_t{ns.cj[e]};
+        const float* vj = rows + kRowFloats * std::size_t{ns.cj[e]} + 4;  // in the line gatherClassify loaded
         far2 = std::max(far2, ns.cd2[e]);
         ns.dx[q] = ns.cx[e];
         ns.dy[q] = ns.cy[e];
@@ -756,7 +754,7 @@ class ShapeModel final : public Model {
   std::vector<float> vx_, vy_, vz_, fx_, fy_, fz_, tx_, ty_, tz_, nvx_, nvy_, nvz_;
   std::vector<float> tgx_, tgy_, tgz_;  // each insect's sample point this step
   std::vector<float> cnx_, cny_, cnz_;  // each insect's curl noise this step
-  std::vector<float> xyz4_, vel4_;      // positions (and a far row at n) and velocities as rows of four
+  AlignedFloats rows_;                  // position and velocity rows (and a far row at n), cache-line aligned
   std::vector<std::uint32_t> ids_, lastIds_;        // ids by sorted position, this step's and last step's
   std::vector<std::uint32_t> sample_, lastSample_;  // the insects' samples (assign_) by sorted position, alike
   std::vector<NearScratch> scratch_;               // per thread: the near-field kernels' scratch
