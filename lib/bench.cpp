@@ -315,15 +315,17 @@ void printShapeTable(const std::vector<BenchRow>& rows, std::ostream& out) {
       if (!info.contains("t_assignment")) continue;
       if (!header) {
         out << "\nShape columns (chen2019 Table 1; ms per step, preprocessing s):\n";
-        std::snprintf(line, sizeof line, "%-22s %9s %7s %9s %10s %9s %9s %7s %9s %9s\n", "scenario", "agents",
-                      "threads", "max_speed", "steps/s", "f_int_all", "per_insect", "mde", "sampling", "assign");
+        std::snprintf(line, sizeof line, "%-22s %9s %7s %9s %10s %7s %7s %9s %9s %7s %9s %9s\n", "scenario", "agents",
+                      "threads", "max_speed", "steps/s", "grid", "noise", "f_int_all", "per_insect", "mde", "sampling",
+                      "assign");
         out << line;
         header = true;
       }
-      std::snprintf(line, sizeof line, "%-22s %9lld %7d %9.3g %10.1f %9.3f %9.3f %7.3f %9.3f %9.3f\n",
+      std::snprintf(line, sizeof line, "%-22s %9lld %7d %9.3g %10.1f %7.3f %7.3f %9.3f %9.3f %7.3f %9.3f %9.3f\n",
                     (row.scenario + (row.modelInfo.size() > 1 ? "/" + info.value("swarm", std::string()) : "")).c_str(),
                     static_cast<long long>(info.value("agents", row.agents)), row.threads,
-                    info.value("max_speed", 0.0), row.stepsPerSecond, info.value("ms_interaction", 0.0),
+                    info.value("max_speed", 0.0), row.stepsPerSecond, info.value("ms_grid", 0.0),
+                    info.value("ms_noise", 0.0), info.value("ms_interaction", 0.0),
                     info.value("ms_forces", 0.0), info.value("ms_mde", 0.0), info.value("t_sampling", 0.0),
                     info.value("t_assignment", 0.0));
       out << line;

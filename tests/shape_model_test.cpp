@@ -217,7 +217,14 @@ TEST_CASE("shape: the near lists are a cache: any skin gives the same bits", "[s
              {"targets", {{{"time", 0.0}, {"file", mesh}, {"scale", 0.25}}}}}}}}}};
     swarmsim::Simulation sim(swarmsim::parseScenario(j, "lists.json"));
     for (int s = 0; s < 80; ++s) sim.step();
-    rebuilds = sim.model(0).benchInfo()["list_rebuilds"].get<double>();
+    const swarmsim::Json info = sim.model(0).benchInfo();
+    rebuilds = info["list_rebuilds"].get<double>();
+    // where a step's time goes (bench's shape columns): each part timed, in ms per step
+    for (const char* part : {"ms_grid", "ms_noise", "ms_forces", "ms_mde"}) {
+      INFO(part);
+      CHECK(info.at(part).get<double>() > 0.0);
+      CHECK(info.at(part).get<double>() < 1e3);
+    }
     return sim.swarms()[0];
   };
   double r0 = 0.0, r1 = 0.0, r2 = 0.0;

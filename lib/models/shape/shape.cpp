@@ -183,7 +183,9 @@ class ShapeModel final : public Model {
     info["t_sampling"] = tSampling_;
     info["t_assignment"] = tAssignment_;
     info["ms_interaction"] = 1e3 * tInteraction_ / steps;
-    info["ms_forces"] = 1e3 * tForces_ / steps;
+    info["ms_grid"] = 1e3 * tGrid_ / steps;        // the grid, and the state copied into its order
+    info["ms_noise"] = 1e3 * tNoiseStep_ / steps;  // the curl noise and sample point of every insect
+    info["ms_forces"] = 1e3 * tForces_ / steps;    // the per-insect pass, and the next step's cell size
     info["ms_mde"] = 1e3 * tMde_ / steps;
     info["theta"] = p_.theta;
     info["neighbours"] = p_.neighbours;
@@ -240,6 +242,7 @@ class ShapeModel final : public Model {
     }
 
     // one grid per step: F_int, F_con and MDE all use it
+    const auto tGrid0 = Clock::now();
     const float kh = static_cast<float>(p_.k * spacing_);
     const float md = static_cast<float>(p_.minDistance);
     const float mdReach = md + 2.0f * static_cast<float>(p_.maxSpeed) * dt;  // movement within the step
@@ -289,6 +292,8 @@ class ShapeModel final : public Model {
       if (assigned) sample_[k] = same ? lastSample_[i] : assign_[ids_[k]];
       if (!same) asLastStep.store(false, std::memory_order_relaxed);  // rare: no contention
     });
+
+    tGrid_ += since(tGrid0);
 
     // F_int (eq. 2-3): over the nearest neighbours (below, with F_con), or over every insect within r_att
     // with the far field approximated
@@ -340,6 +345,8 @@ class ShapeModel final : public Model {
       }
     });
 
+    tNoiseStep_ += since(t0);
+    t0 = Clock::now();
     const bool asLast = asLastStep.load(std::memory_order_relaxed);
     const ZonalSum zones(static_cast<float>(p_.rRep), static_cast<float>(p_.rAli), rAtt, static_cast<float>(p_.wRep),
                          static_cast<float>(p_.wAli), static_cast<float>(p_.wAtt));
@@ -654,7 +661,7 @@ class ShapeModel final : public Model {
     frameMoved_ += moved;
     frameAgentSteps_ += n;
     if (info.step == 0) {
-      tInteraction_ = tForces_ = tMde_ = 0.0;
+      tInteraction_ = tForces_ = tMde_ = tGrid_ = tNoiseStep_ = 0.0;
       rebuilds_ = 0;  // the first step sizes every buffer: not timed
     } else {
       ++timedSteps_;
@@ -793,7 +800,7 @@ class ShapeModel final : public Model {
   std::size_t frameMoved_ = 0, frameAgentSteps_ = 0, timedSteps_ = 0;
   double tDistance_ = 0.0, tNoise_ = 0.0, tSampling_ = 0.0, tAssignment_ = 0.0;
   std::size_t rebuilds_ = 0;  // near lists built from the grid in the timed steps
-  double tInteraction_ = 0.0, tForces_ = 0.0, tMde_ = 0.0;
+  double tInteraction_ = 0.0, tForces_ = 0.0, tMde_ = 0.0, tGrid_ = 0.0, tNoiseStep_ = 0.0;
 };
 
 }  // namespace
