@@ -538,11 +538,12 @@ class ShapeModel final : public Model {
     if (nearest) {
       // the next step's cell: the 90th percentile of the K-th neighbour distances, plus a step's movement (fewer
       // insects need the grid search beyond their block than with the median; measured on moon and horse), over
-      // every stride-th insect in grid order, at most about 4,096 of them. The cell size is a speed choice only:
+      // every stride-th insect in grid order, at most about 1,024 of them (on one thread, while the others wait).
+      // The cell size is a speed choice only:
       // no sum depends on it (the sums run over the neighbours that count, in id order)
       reach_.swap(reachLast_);
       if (n > 0) {
-        const std::size_t stride = std::max<std::size_t>(1, n / 4096), samples = (n + stride - 1) / stride;
+        const std::size_t stride = std::max<std::size_t>(1, n / 1024), samples = (n + stride - 1) / stride;
         sortScratch_.resize(samples);
         for (std::size_t i = 0; i < samples; ++i) sortScratch_[i] = reachLast_[i * stride];
         const std::size_t q = samples - 1 - samples / 10;
