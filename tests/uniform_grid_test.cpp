@@ -795,3 +795,112 @@ TEST_CASE("UniformGrid coveredRadius: every point within it of a query is in the
     CHECK(inside > 2 * checked);      // and hold points within the radius
   }
 }
+
+TEST_CASE("UniformGrid moveSorted: queries on kept cells find what a grid built on the moved points finds",
+          "[grid]") {
+  // the shape model keeps a grid's cells over several steps and only moves its points (moveSorted): every
+  // query must still find exactly the points within its radius (brute force on the moved points), through
+  // forEachNeighbor, forEachRunInBall and gathered blocks within coveredRadius, while points leave their cells
+  std::mt19937 rng(21);
+  Points p = randomPoints(rng, 2500, 0.0f, 3.0f);
+  const float cell = 0.3f;
+  UniformGrid g;
+  build(g, p, cell);
+  std::vector<float> xs(p.size()), ys(p.size()), zs(p.size());
+  std::uniform_real_distribution<float> step(-1.0f, 1.0f), u(-0.5f, 3.5f);
+  float total = 0.0f;
+  for (int round = 0; round < 6; ++round) {
+    // every point moves by at most `move` (a random direction, some points pushed out of the box)
+    const float move = 0.04f * static_cast<float>(round + 1);
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      float d[3] = {step(rng), step(rng), step(rng)};
+      const float len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+      const float scale = len > 0.0f ? move * 0.999f / std::max(len, 1.0f) : 0.0f;
+      p.x[i] += d[0] * scale;
+      p.y[i] += d[1] * scale;
+      p.z[i] += d[2] * scale;
+    }
+    for (std::size_t k = 0; k < p.size(); ++k) {
+      const std::uint32_t i = g.order()[k];
+      xs[k] = p.x[i];
+      ys[k] = p.y[i];
+      zs[k] = p.z[i];
+    }
+    g.moveSorted(xs.data(), ys.data(), zs.data(), move);
+    total += move;
+    CHECK(g.slack() >= total);
+    CHECK(g.slack() <= total * 1.001f);
+    for (std::size_t k = 0; k < p.size(); ++k) CHECK(g.sortedX()[k] == p.x[g.order()[k]]);
+    std::vector<Query> qs = pointsAsQueries(p);
+    for (int i = 0; i < 200; ++i) {
+      const float a = u(rng), b = u(rng), c = u(rng);
+      qs.push_back({a, b, c});
+    }
+    const CheckSummary s = checkAll(g, p, qs, {0.5f * cell, cell, 1.7f * cell});
+    INFO("round " << round << ", first failure: " << s.first);
+    CHECK(s.failures == 0);
+    CHECK(s.visited > s.queries);
+    // the runs cut to the ball: the same points within r as the full runs
+    for (const Query& q : qs) {
+      for (const float r : {0.5f * cell, 1.3f * cell}) {
+        const auto collect = [&](bool ball) {
+          std::vector<std::uint32_t> in;
+          const auto f = [&](std::uint32_t b, std::uint32_t e) {
+            for (std::uint32_t k = b; k < e; ++k) {
+              const float dx = g.sortedX()[k] - q.x, dy = g.sortedY()[k] - q.y, dz = g.sortedZ()[k] - q.z;
+              if (dx * dx + dy * dy + dz * dz <= r * r) in.push_back(g.order()[k]);
+            }
+          };
+          if (ball) {
+            g.forEachRunInBall(q.x, q.y, q.z, r, f);
+          } else {
+            g.forEachRun(q.x, q.y, q.z, r, f);
+          }
+          std::sort(in.begin(), in.end());
+          return in;
+        };
+        const auto cut = collect(true);
+        REQUIRE(cut == collect(false));
+        REQUIRE(cut == bruteForce(p, q, r));
+      }
+    }
+    // a cell's block holds every point within coveredRadius of the cell's points, wherever they went
+    swarmsim::CellBlock block;
+    for (std::size_t c = 0; c < g.cellCount(); c += 7) {
+      if (g.cellBegin(c) == g.cellEnd(c)) continue;
+      g.gatherCell(c, cell, block);
+      std::vector<std::uint32_t> in(block.index.begin(), block.index.begin() + static_cast<std::ptrdiff_t>(block.size));
+      std::sort(in.begin(), in.end());
+      for (std::uint32_t k = g.cellBegin(c); k < g.cellEnd(c); ++k) {
+        const float qx = g.sortedX()[k], qy = g.sortedY()[k], qz = g.sortedZ()[k];
+        const float r = g.coveredRadius(block, qx, qy, qz);
+        for (std::uint32_t j = 0; j < g.size(); ++j) {
+          const float dx = g.sortedX()[j] - qx, dy = g.sortedY()[j] - qy, dz = g.sortedZ()[j] - qz;
+          if (dx * dx + dy * dy + dz * dz > r * r) continue;
+          if (!std::binary_search(in.begin(), in.end(), j)) {
+            FAIL_CHECK("point " << j << " within " << r << " of " << k << " is not in the block");
+          }
+        }
+      }
+    }
+    // every point's own cell is within reach of a query of radius 0 about it (the queries reach slack() farther)
+    for (std::size_t c = 0; c < g.cellCount(); ++c) {
+      const int cx = static_cast<int>(c % static_cast<std::size_t>(g.dim(0)));
+      const int cy = static_cast<int>((c / static_cast<std::size_t>(g.dim(0))) % static_cast<std::size_t>(g.dim(1)));
+      const int cz = static_cast<int>(c / (static_cast<std::size_t>(g.dim(0)) * static_cast<std::size_t>(g.dim(1))));
+      for (std::uint32_t k = g.cellBegin(c); k < g.cellEnd(c); ++k) {
+        int lo[3], hi[3];
+        g.cellRange(g.sortedX()[k], g.sortedY()[k], g.sortedZ()[k], 0.0f, lo, hi);
+        CHECK((cx >= lo[0] && cx <= hi[0] && cy >= lo[1] && cy <= hi[1] && cz >= lo[2] && cz <= hi[2]));
+      }
+    }
+    // not vacuous: points have left the cells they were binned in (a grid built on them orders them otherwise)
+    UniformGrid fresh;
+    build(fresh, p, cell);
+    CHECK(fresh.order() != g.order());
+  }
+  // a fresh build forgets the slack
+  build(g, p, cell);
+  CHECK(g.slack() == 0.0f);
+  CHECK_THROWS_AS(g.moveSorted(xs.data(), ys.data(), zs.data(), -1.0f), std::invalid_argument);
+}

@@ -13,6 +13,7 @@ namespace swarmsim {
 void UniformGrid::build(const float* x, const float* y, const float* z, std::size_t n, float minCell,
                         double cellsPerPoint, bool sortedCopies) {
   if (!(minCell > 0.0f)) throw std::invalid_argument("UniformGrid::build: cell size must be > 0");
+  slack_ = 0.0f;
   // bounding box: per-chunk min/max, then combined (exact, so order-free)
   constexpr float kBig = std::numeric_limits<float>::max();
   const int chunks = chunkCount(n);
@@ -152,6 +153,19 @@ void UniformGrid::build(const float* x, const float* y, const float* z, std::siz
   });
 }
 
+void UniformGrid::moveSorted(const float* x, const float* y, const float* z, float moved) {
+  if (sx_.empty() && !order_.empty()) throw std::logic_error("UniformGrid::moveSorted: a grid without sorted copies");
+  if (!(moved >= 0.0f) || !std::isfinite(moved)) throw std::invalid_argument("UniformGrid::moveSorted: bad move");
+  const std::size_t n = order_.size();
+  parallelFor(n, [&](std::size_t k) {
+    sx_[k] = x[k];
+    sy_[k] = y[k];
+    sz_[k] = z[k];
+  });
+  // a little more than the sum: float rounding of the moves
+  slack_ = (slack_ + moved) * (1.0f + 1e-6f);
+}
+
 void UniformGrid::gatherCell(std::size_t c, float r, CellBlock& block) const {
   int lo[3], hi[3];
   cellBox(c, r, lo, hi);
@@ -182,7 +196,9 @@ float UniformGrid::coveredRadius(const CellBlock& block, float qx, float qy, flo
     if (block.lo[a] > 0) g = std::min(g, q[a] - (origin_[a] + block.lo[a] * cell));
     if (block.hi[a] < dims_[a] - 1) g = std::min(g, origin_[a] + (block.hi[a] + 1) * cell - q[a]);
   }
-  // cell coordinates and float distances round: stay a little inside
+  // points up to slack_ outside their cells (moveSorted); cell coordinates and float distances round: stay a
+  // little inside
+  g -= static_cast<double>(slack_);
   return static_cast<float>(std::max(0.0, std::min(g * (1.0 - 1e-5), 3.0e38)));
 }
 

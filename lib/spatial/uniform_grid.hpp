@@ -91,6 +91,14 @@ class UniformGrid {
   void build(const float* x, const float* y, const float* z, std::size_t n, float minCell, double cellsPerPoint = 2.0,
              bool sortedCopies = true);
 
+  // The points, still given in sorted order (point k is sorted position k), have moved by at most `moved`
+  // since the last build or moveSorted: their positions in sortedX/Y/Z become these, and the cells stay. A
+  // point may now lie up to slack() (the sum of the moves since the build) outside its cell, so every query
+  // below reaches slack() farther across cells, and tests distances on the new positions: the same points as
+  // a grid built on them, in the cells' order, from a few more cells. (Only with sortedCopies.)
+  void moveSorted(const float* x, const float* y, const float* z, float moved);
+  float slack() const { return slack_; }
+
   std::size_t size() const { return order_.size(); }
   // sorted position k -> original point index
   const std::vector<std::uint32_t>& order() const { return order_; }
@@ -116,7 +124,8 @@ class UniformGrid {
   // within r of q lies in them (cell coordinates are monotone in position)
   void cellRange(float qx, float qy, float qz, float r, int lo[3], int hi[3]) const {
     const double q[3] = {qx, qy, qz};
-    const double rr = static_cast<double>(r) * (1.0 + 1e-6);  // slack for float rounding of distances
+    // float rounding of distances: 1e-6 more
+    const double rr = (static_cast<double>(r) + static_cast<double>(slack_)) * (1.0 + 1e-6);
     for (int a = 0; a < 3; ++a) {
       lo[a] = cellCoord(q[a] - rr, a);
       hi[a] = cellCoord(q[a] + rr, a);
@@ -153,7 +162,7 @@ class UniformGrid {
     if (order_.empty()) return;
     int lo[3], hi[3];
     cellRange(qx, qy, qz, r, lo, hi);
-    const double rr = static_cast<double>(r) * (1.0 + 1e-6), rr2 = rr * rr;
+    const double rr = (static_cast<double>(r) + static_cast<double>(slack_)) * (1.0 + 1e-6), rr2 = rr * rr;
     // the squared distance from q to the slab of cells c on axis a, a little less (1e-6 of a cell)
     const double ty = (static_cast<double>(qy) - origin_[1]) * inv_[1], tz = (static_cast<double>(qz) - origin_[2]) * inv_[2];
     const double size[3] = {0.0, 1.0 / inv_[1], 1.0 / inv_[2]};
@@ -253,7 +262,9 @@ class UniformGrid {
   // are built 1e-5 wider) searches one.
   static constexpr int kMaxSpan = 16;  // forEachRunInBall's tables of gaps per row
   int spanFor(float r, int axis) const {
-    return static_cast<int>(std::floor(static_cast<double>(r) * inv_[axis] * (1.0 + 1e-6))) + 1;
+    return static_cast<int>(
+               std::floor((static_cast<double>(r) + static_cast<double>(slack_)) * inv_[axis] * (1.0 + 1e-6))) +
+           1;
   }
   int cellCoord(double v, int axis) const {
     const double t = (v - origin_[axis]) * inv_[axis];
@@ -272,6 +283,7 @@ class UniformGrid {
   std::vector<std::size_t> rangeBase_;                    // build scratch: each chunk's first cursor
   std::vector<float> sx_, sy_, sz_;              // positions in sorted order (n + kSortedPad)
   std::vector<std::array<float, 7>> bboxParts_;  // per-chunk bounding boxes (build scratch)
+  float slack_ = 0.0f;                           // how far the points have moved since the build (moveSorted)
 };
 
 // The cell-batched neighbour loop: for every sorted point k of `grid`, in

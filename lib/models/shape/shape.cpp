@@ -184,6 +184,7 @@ class ShapeModel final : public Model {
     info["t_assignment"] = tAssignment_;
     info["ms_interaction"] = 1e3 * tInteraction_ / steps;
     info["ms_grid"] = 1e3 * tGrid_ / steps;        // the grid, and the state copied into its order
+    info["grid_builds"] = static_cast<double>(gridBuilds_) / steps;  // per step: the rest kept their cells
     info["ms_noise"] = 1e3 * tNoiseStep_ / steps;  // the curl noise and sample point of every insect
     info["ms_forces"] = 1e3 * tForces_ / steps;    // the per-insect pass, and the next step's cell size
     info["ms_mde"] = 1e3 * tMde_ / steps;
@@ -212,6 +213,7 @@ class ShapeModel final : public Model {
     frameAgentSteps_ = static_cast<std::size_t>(in.get<std::uint64_t>());
     cellHint_ = in.get<float>();
     lists_.clear();  // caches of positions the loaded state does not have
+    inGridOrder_ = false;
     if (!(cellHint_ >= 0.0f && cellHint_ <= static_cast<float>(p_.rAtt))) throw std::runtime_error("shape checkpoint: bad cell");
     if (g < -1 || g >= static_cast<std::int64_t>(groupStart_.size())) throw std::runtime_error("shape checkpoint: bad group");
     if (g >= 0) {
@@ -243,13 +245,34 @@ class ShapeModel final : public Model {
 
     // one grid per step: F_int, F_con and MDE all use it
     const auto tGrid0 = Clock::now();
+    const bool nearest = p_.neighbours > 0;
     const float kh = static_cast<float>(p_.k * spacing_);
     const float md = static_cast<float>(p_.minDistance);
     const float mdReach = md + 2.0f * static_cast<float>(p_.maxSpeed) * dt;  // movement within the step
     // cells of at least k h (F_con), the MDE reach and (nearest-neighbour F_int) the K-th neighbour's distance
-    // of half of the insects last step, so that most searches visit 27 cells
-    grid_.build(s.px.data(), s.py.data(), s.pz.data(), n, std::max({kh, mdReach, cellHint_, 1e-4f}));
-    const auto& order = grid_.order();
+    // of most of the insects last step, so that most searches visit 27 cells. With the K nearest, while the
+    // state is in the grid's order (as last step wrote it) and the insects have moved less than `grid_drift`
+    // cells since the grid was built, the cells stay and only the positions are new (UniformGrid::moveSorted:
+    // the queries reach that much farther across cells). Which grid answers never changes a result: every sum
+    // runs over the neighbours that count, in id order.
+    const float cellWanted = std::max({kh, mdReach, cellHint_, 1e-4f});
+    const float cellNow = std::min({grid_.cellSize(0), grid_.cellSize(1), grid_.cellSize(2)});
+    const auto drift = static_cast<float>(lastMaxMove_);
+    const bool keepCells = nearest && inGridOrder_ && grid_.size() == n && n > 0 && p_.gridDrift > 0.0 &&
+                           grid_.slack() + drift <= static_cast<float>(p_.gridDrift) * cellNow &&
+                           cellWanted <= 1.1f * cellNow && cellWanted >= 0.75f * cellNow;
+    if (keepCells) {
+      grid_.moveSorted(s.px.data(), s.py.data(), s.pz.data(), drift);
+    } else {
+      grid_.build(s.px.data(), s.py.data(), s.pz.data(), n, cellWanted);
+      ++gridBuilds_;
+    }
+    // the state index of each sorted position: the grid's order, or where the state already is
+    if (identity_.size() != n) {
+      identity_.resize(n);
+      for (std::size_t k = 0; k < n; ++k) identity_[k] = static_cast<std::uint32_t>(k);
+    }
+    bool cellsKept = keepCells;
     for (auto* a : {&vx_, &vy_, &vz_, &fx_, &fy_, &fz_, &tx_, &ty_, &tz_, &nvx_, &nvy_, &nvz_, &tgx_, &tgy_, &tgz_}) {
       a->resize(n);
     }
@@ -270,7 +293,8 @@ class ShapeModel final : public Model {
     const float* gy = grid_.sortedY().data();
     const float* gz = grid_.sortedZ().data();
     for (std::size_t a = 0; a < kRowFloats; ++a) rows[kRowFloats * n + a] = a < 3 ? 3.0e38f : 0.0f;
-    parallelFor(n, [&](std::size_t k) {
+    const auto copyIn = [&](const std::vector<std::uint32_t>& order) {
+     parallelFor(n, [&](std::size_t k) {
       const std::uint32_t i = order[k];
       vx_[k] = s.vx[i];
       vy_[k] = s.vy[i];
@@ -291,14 +315,24 @@ class ShapeModel final : public Model {
       const bool same = i < lastIds_.size() && lastIds_[i] == ids_[k];
       if (assigned) sample_[k] = same ? lastSample_[i] : assign_[ids_[k]];
       if (!same) asLastStep.store(false, std::memory_order_relaxed);  // rare: no contention
-    });
+     });
+    };
+    copyIn(cellsKept ? identity_ : grid_.order());
+    if (cellsKept && !asLastStep.load(std::memory_order_relaxed)) {
+      // the state is not in the order the kept grid has (it was changed between the steps): a new grid
+      grid_.build(s.px.data(), s.py.data(), s.pz.data(), n, cellWanted);
+      ++gridBuilds_;
+      cellsKept = false;
+      asLastStep.store(lastIds_.size() == n, std::memory_order_relaxed);
+      copyIn(grid_.order());
+    }
+    const std::vector<std::uint32_t>& order = cellsKept ? identity_ : grid_.order();
 
     tGrid_ += since(tGrid0);
 
     // F_int (eq. 2-3): over the nearest neighbours (below, with F_con), or over every insect within r_att
     // with the far field approximated
     auto t0 = Clock::now();
-    const bool nearest = p_.neighbours > 0;
     if (!nearest) {
       const ZoneParams zones = ZoneParams::of(p_.rRep, p_.rAli, p_.rAtt, p_.wRep, p_.wAli, p_.wAtt);
       forces_.compute(grid_, vx_.data(), vy_.data(), vz_.data(), zones, static_cast<float>(p_.theta), fx_.data(),
@@ -650,7 +684,8 @@ class ShapeModel final : public Model {
     if (nearest) {  // how far the lists' insects can have moved (a max: the same for any order)
       float move2 = 0.0f;
       for (std::size_t k = 0; k < n; ++k) move2 = std::max(move2, move2_[k]);
-      lists_.advance(static_cast<double>(std::sqrt(move2)) * (1.0 + 1e-5) + 1e-7);
+      lastMaxMove_ = static_cast<double>(std::sqrt(move2)) * (1.0 + 1e-5) + 1e-7;
+      lists_.advance(lastMaxMove_);
       for (NearScratch& ns : scratch_) {
         rebuilds_ += ns.rebuilds;
         ns.rebuilds = 0;
@@ -658,11 +693,13 @@ class ShapeModel final : public Model {
     }
     tMde_ += since(t0);
     s.swapStorage(next_);
+    inGridOrder_ = true;  // the state is in this step's grid order now
 
     frameMoved_ += moved;
     frameAgentSteps_ += n;
     if (info.step == 0) {
       tInteraction_ = tForces_ = tMde_ = tGrid_ = tNoiseStep_ = 0.0;
+      gridBuilds_ = 0;
       rebuilds_ = 0;  // the first step sizes every buffer: not timed
     } else {
       ++timedSteps_;
@@ -802,6 +839,11 @@ class ShapeModel final : public Model {
   double tDistance_ = 0.0, tNoise_ = 0.0, tSampling_ = 0.0, tAssignment_ = 0.0;
   std::size_t rebuilds_ = 0;  // near lists built from the grid in the timed steps
   double tInteraction_ = 0.0, tForces_ = 0.0, tMde_ = 0.0, tGrid_ = 0.0, tNoiseStep_ = 0.0;
+  // the grid's cells are kept across steps while the state stays in their order (see step)
+  bool inGridOrder_ = false;
+  double lastMaxMove_ = 0.0;           // the largest move of an insect last step (m, a little more)
+  std::size_t gridBuilds_ = 0;         // grids built in the timed steps (a statistic)
+  std::vector<std::uint32_t> identity_;  // 0, 1, ..., n - 1
 };
 
 }  // namespace
@@ -840,6 +882,7 @@ ShapeParams readShapeParams(JsonReader& r, const ModelContext& context) {
   p.agentRadius = r.number("agent_radius", p.agentRadius, Range::lengthOrZero());
   p.sdfCells = readCells(r, "sdf_cells", false, 2, 1024);
   p.listSkin = r.number("list_skin", p.listSkin, Range::closed(0.0, 4.0));
+  p.gridDrift = r.number("grid_drift", p.gridDrift, Range::closed(0.0, 2.0));
   p.sampleSeed = r.unsignedInteger("sample_seed", context.world.seed);
   p.count = context.count;
 

@@ -75,6 +75,9 @@ struct ShapeParams {
   // the near lists' skin (near_list.hpp): lists are built at (1 + skin) times the radius needed. Speed
   // only: any value gives the same bits
   double listSkin = 0.3;
+  // the grid keeps its cells while the insects have moved less than this many cells since it was built (0:
+  // a new grid every step); speed only
+  double gridDrift = 0.25;
   std::uint64_t sampleSeed = 0;             // seed of the stratified sampling (default: the scenario's)
   std::vector<ShapeKey> keys;               // at least one
   std::int64_t count = 1;                   // insects of the swarm (one sample each)
