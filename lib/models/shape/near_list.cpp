@@ -1,6 +1,7 @@
 #include "models/shape/near_list.hpp"
 
 #include <algorithm>
+#include <stdexcept>
 
 #include "core/lanes.hpp"
 
@@ -180,6 +181,10 @@ const std::uint32_t* NearLists::keep(std::uint32_t from, std::uint32_t k, const 
                                      std::size_t& m) {
   m = last_.len[from];
   const std::uint32_t* old = last_.pos.data() + static_cast<std::size_t>(from) * capacity_;
+  if (inPlace_) {
+    if (from != k) throw std::logic_error("NearLists::keep: a step in place with an insect moved");
+    return old;  // every sorted position is last step's: the list as it is
+  }
   std::uint32_t* list = next_.pos.data() + static_cast<std::size_t>(k) * capacity_;
   for (std::size_t e = 0; e < m; ++e) list[e] = newPos[old[e]];  // near k: mostly in this core's cache
   next_.len[k] = static_cast<std::uint32_t>(m);
@@ -213,15 +218,16 @@ const std::uint32_t* NearLists::build(std::uint32_t k, float r, const UniformGri
   }
   sortById(scratch, idOf, keys, lanes);
   m = scratch.size();
+  Slots& out = inPlace_ ? last_ : next_;
   if (m > capacity_) {
-    next_.len[k] = kNone;
+    out.len[k] = kNone;
     return scratch.data();
   }
-  std::uint32_t* list = next_.pos.data() + static_cast<std::size_t>(k) * capacity_;
+  std::uint32_t* list = out.pos.data() + static_cast<std::size_t>(k) * capacity_;
   std::copy(scratch.begin(), scratch.end(), list);
-  next_.len[k] = static_cast<std::uint32_t>(m);
-  next_.radius[k] = r;
-  next_.movedAt[k] = moved_;
+  out.len[k] = static_cast<std::uint32_t>(m);
+  out.radius[k] = r;
+  out.movedAt[k] = moved_;
   return list;
 }
 

@@ -44,6 +44,10 @@ class NearLists {
   void reset(std::size_t n, std::size_t capacity, float skin);
   // drop every list (the next step builds them again)
   void clear();
+  // A step in which every insect's sorted position is its state index (the grid kept its cells, so the state
+  // is where last step wrote it): each list stays in its slot, a kept list as it is (no copy), a new one
+  // written over it. Otherwise (the default for each step) this step's lists go to the other slots.
+  void beginStep(bool inPlace) { inPlace_ = inPlace; }
 
   // Lists live in slots: the state's order, which each step rewrites in its grid order, so a step reads
   // the slots of last step (`from`, the insect's state index, or kNone when it has no list there) and
@@ -74,14 +78,16 @@ class NearLists {
   // sorted insect k's list as keep() or build() left it this step (sorted positions by ascending id), or
   // nullptr when it has none (it did not fit)
   const std::uint32_t* stored(std::uint32_t k, std::size_t& m) const {
-    m = next_.len[k];
-    return m == kNone ? nullptr : next_.pos.data() + static_cast<std::size_t>(k) * capacity_;
+    const Slots& out = inPlace_ ? last_ : next_;
+    m = out.len[k];
+    return m == kNone ? nullptr : out.pos.data() + static_cast<std::size_t>(k) * capacity_;
   }
   // after a step in which no insect moved farther than maxMove (m): this step's lists become last step's
   void advance(double maxMove) {
     moved_ += maxMove;
     lastMove_ = maxMove;
-    std::swap(last_, next_);
+    if (!inPlace_) std::swap(last_, next_);
+    inPlace_ = false;
   }
 
  private:
@@ -96,6 +102,7 @@ class NearLists {
   float skin_ = 0.3f;
   double moved_ = 0.0;  // Σ of each step's largest move
   double lastMove_ = 0.0;
+  bool inPlace_ = false;  // beginStep
   Slots last_, next_;
 };
 

@@ -398,6 +398,7 @@ class ShapeModel final : public Model {
       // the lists hold last step's sorted positions, which are this step's state indices only while the state
       // is in the order last step wrote it: else (the first step, a resume, a new target) they go
       if (!asLast) lists_.clear();
+      lists_.beginStep(cellsKept && asLast);  // the state in place: each list stays in its slot
     }
     const ZoneLanes zoneLanes = {zones.rRep2, zones.rAli2, zones.rAtt2, {zones.w[0], zones.w[1], zones.w[2]}};
     const LaneSet lanes = laneSet();
