@@ -294,28 +294,28 @@ class ShapeModel final : public Model {
     const float* gz = grid_.sortedZ().data();
     for (std::size_t a = 0; a < kRowFloats; ++a) rows[kRowFloats * n + a] = a < 3 ? 3.0e38f : 0.0f;
     const auto copyIn = [&](const std::vector<std::uint32_t>& order) {
-     parallelFor(n, [&](std::size_t k) {
-      const std::uint32_t i = order[k];
-      vx_[k] = s.vx[i];
-      vy_[k] = s.vy[i];
-      vz_[k] = s.vz[i];
-      float* row = rows + kRowFloats * k;
-      row[0] = gx[k];
-      row[1] = gy[k];
-      row[2] = gz[k];
-      row[3] = 0.0f;
-      row[4] = vx_[k];
-      row[5] = vy_[k];
-      row[6] = vz_[k];
-      row[7] = 0.0f;
-      newPos_[i] = static_cast<std::uint32_t>(k);  // last step's sorted position (the state index) -> this step's
-      ids_[k] = s.id[i];
-      // the insect's sample: where last step left it when the state is as last step wrote it (it is, but
-      // for the step after a resume), else through the id (a random access)
-      const bool same = i < lastIds_.size() && lastIds_[i] == ids_[k];
-      if (assigned) sample_[k] = same ? lastSample_[i] : assign_[ids_[k]];
-      if (!same) asLastStep.store(false, std::memory_order_relaxed);  // rare: no contention
-     });
+      parallelFor(n, [&](std::size_t k) {
+        const std::uint32_t i = order[k];
+        vx_[k] = s.vx[i];
+        vy_[k] = s.vy[i];
+        vz_[k] = s.vz[i];
+        float* row = rows + kRowFloats * k;
+        row[0] = gx[k];
+        row[1] = gy[k];
+        row[2] = gz[k];
+        row[3] = 0.0f;
+        row[4] = vx_[k];
+        row[5] = vy_[k];
+        row[6] = vz_[k];
+        row[7] = 0.0f;
+        newPos_[i] = static_cast<std::uint32_t>(k);  // last step's sorted position (the state index) -> this step's
+        ids_[k] = s.id[i];
+        // the insect's sample: where last step left it when the state is as last step wrote it (it is, but
+        // for the step after a resume), else through the id (a random access)
+        const bool same = i < lastIds_.size() && lastIds_[i] == ids_[k];
+        if (assigned) sample_[k] = same ? lastSample_[i] : assign_[ids_[k]];
+        if (!same) asLastStep.store(false, std::memory_order_relaxed);  // rare: no contention
+      });
     };
     copyIn(cellsKept ? identity_ : grid_.order());
     if (cellsKept && !asLastStep.load(std::memory_order_relaxed)) {
