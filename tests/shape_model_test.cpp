@@ -198,23 +198,40 @@ TEST_CASE("shape: F_int acts over each insect's K nearest neighbours within r_at
   }
 }
 
+namespace {
+
+// 800 insects in a 6 m box forming a small sphere, with the K nearest (K = 10) and MDE: the scenario of the
+// caches' tests (near lists, kept grid cells), with one speed-only key set to `value`
+swarmsim::Json cacheScenario(const char* name, unsigned seed, double initialSpeed, double maxSpeed, const char* key,
+                             double value) {
+  const std::string mesh = std::string(SWARMSIM_SOURCE_DIR) + "/data/shapes/sphere.obj";
+  return {{"name", name}, {"seed", seed}, {"dt", 0.02}, {"frames", 100u}, {"steps_per_frame", 1u},
+          {"domain", {{"min", {-6, -6, -6}}, {"max", {6, 6, 6}}}},
+          {"swarms",
+           {{{"name", "flies"}, {"count", 800u}, {"model", "shape"}, {"initial_speed", initialSpeed},
+             {"spawn", {{"type", "box"}, {"min", {-3, -3, -3}}, {"max", {3, 3, 3}}}},
+             {"params",
+              {{"alpha", 0.5}, {"neighbours", 10u}, {"r_rep", 0.2}, {"r_ali", 0.6}, {"r_att", 2.0}, {"w_att", 1.0},
+               {"min_distance", 0.05}, {"max_speed", maxSpeed}, {key, value},
+               {"targets", {{{"time", 0.0}, {"file", mesh}, {"scale", 0.25}}}}}}}}}};
+}
+
+// each insect's position and velocity, by id (the state's order is the grid's, which may differ)
+std::vector<std::array<float, 6>> byId(const swarmsim::SwarmState& st) {
+  std::vector<std::array<float, 6>> out(st.size());
+  for (std::size_t i = 0; i < st.size(); ++i) out[st.id[i]] = {st.px[i], st.py[i], st.pz[i], st.vx[i], st.vy[i], st.vz[i]};
+  return out;
+}
+
+}  // namespace
+
 TEST_CASE("shape: keeping the grid's cells across steps is a cache: any grid_drift gives the same bits", "[shape]") {
   // With the K nearest, the grid keeps its cells while the insects have moved less than grid_drift cells
   // since it was built (UniformGrid::moveSorted); its queries reach that much farther. No sum depends on the
   // grid, so a new grid every step (0), the default and a wide drift give bit-identical states, with very
   // different numbers of grids built. Fast insects (1.5 m/s, 3 cm a step) leave their cells within a few steps.
-  const std::string mesh = std::string(SWARMSIM_SOURCE_DIR) + "/data/shapes/sphere.obj";
   const auto run = [&](double drift, double& builds) {
-    swarmsim::Json j = {
-        {"name", "drift"}, {"seed", 13u}, {"dt", 0.02}, {"frames", 100u}, {"steps_per_frame", 1u},
-        {"domain", {{"min", {-6, -6, -6}}, {"max", {6, 6, 6}}}},
-        {"swarms",
-         {{{"name", "flies"}, {"count", 800u}, {"model", "shape"}, {"initial_speed", 1.0},
-           {"spawn", {{"type", "box"}, {"min", {-3, -3, -3}}, {"max", {3, 3, 3}}}},
-           {"params",
-            {{"alpha", 0.5}, {"neighbours", 10u}, {"r_rep", 0.2}, {"r_ali", 0.6}, {"r_att", 2.0}, {"w_att", 1.0},
-             {"min_distance", 0.05}, {"max_speed", 1.5}, {"grid_drift", drift},
-             {"targets", {{{"time", 0.0}, {"file", mesh}, {"scale", 0.25}}}}}}}}}};
+    const swarmsim::Json j = cacheScenario("drift", 13u, 1.0, 1.5, "grid_drift", drift);
     swarmsim::Simulation sim(swarmsim::parseScenario(j, "drift.json"));
     for (int s = 0; s < 60; ++s) sim.step();
     builds = sim.model(0).benchInfo()["grid_builds"].get<double>();
@@ -224,11 +241,6 @@ TEST_CASE("shape: keeping the grid's cells across steps is a cache: any grid_dri
   const swarmsim::SwarmState a = run(0.0, b0), b = run(0.25, b1), c = run(1.5, b2);
   INFO("grids built per step: " << b0 << ", " << b1 << ", " << b2);
   // the state is kept in the grid's order, which differs: compare insect by insect (by id)
-  const auto byId = [](const swarmsim::SwarmState& st) {
-    std::vector<std::array<float, 6>> out(st.size());
-    for (std::size_t i = 0; i < st.size(); ++i) out[st.id[i]] = {st.px[i], st.py[i], st.pz[i], st.vx[i], st.vy[i], st.vz[i]};
-    return out;
-  };
   const auto ref = byId(a);
   for (const swarmsim::SwarmState* o : {&b, &c}) {
     REQUIRE(o->size() == a.size());
@@ -246,18 +258,8 @@ TEST_CASE("shape: the near lists are a cache: any skin gives the same bits", "[s
   // depend on when a list was built: skin 0 (a new list every step), the default, and a wide skin (lists
   // often too long to keep: the grid's candidates serve that step, MDE's included) give bit-identical
   // states, while building very different numbers of lists.
-  const std::string mesh = std::string(SWARMSIM_SOURCE_DIR) + "/data/shapes/sphere.obj";
   const auto run = [&](double skin, double& rebuilds) {
-    swarmsim::Json j = {
-        {"name", "lists"}, {"seed", 11u}, {"dt", 0.02}, {"frames", 100u}, {"steps_per_frame", 1u},
-        {"domain", {{"min", {-6, -6, -6}}, {"max", {6, 6, 6}}}},
-        {"swarms",
-         {{{"name", "flies"}, {"count", 800u}, {"model", "shape"}, {"initial_speed", 0.5},
-           {"spawn", {{"type", "box"}, {"min", {-3, -3, -3}}, {"max", {3, 3, 3}}}},
-           {"params",
-            {{"alpha", 0.5}, {"neighbours", 10u}, {"r_rep", 0.2}, {"r_ali", 0.6}, {"r_att", 2.0}, {"w_att", 1.0},
-             {"min_distance", 0.05}, {"max_speed", 0.5}, {"list_skin", skin},
-             {"targets", {{{"time", 0.0}, {"file", mesh}, {"scale", 0.25}}}}}}}}}};
+    const swarmsim::Json j = cacheScenario("lists", 11u, 0.5, 0.5, "list_skin", skin);
     swarmsim::Simulation sim(swarmsim::parseScenario(j, "lists.json"));
     for (int s = 0; s < 80; ++s) sim.step();
     const swarmsim::Json info = sim.model(0).benchInfo();
@@ -273,15 +275,10 @@ TEST_CASE("shape: the near lists are a cache: any skin gives the same bits", "[s
   double r0 = 0.0, r1 = 0.0, r2 = 0.0;
   const swarmsim::SwarmState a = run(0.0, r0), b = run(0.3, r1), c = run(0.8, r2);
   INFO("lists built per insect-step: " << r0 << ", " << r1 << ", " << r2);
+  const auto ref = byId(a);
   for (const swarmsim::SwarmState* o : {&b, &c}) {
     REQUIRE(o->size() == a.size());
-    CHECK(o->px == a.px);
-    CHECK(o->py == a.py);
-    CHECK(o->pz == a.pz);
-    CHECK(o->vx == a.vx);
-    CHECK(o->vy == a.vy);
-    CHECK(o->vz == a.vz);
-    CHECK(o->id == a.id);
+    CHECK(byId(*o) == ref);
   }
   // lists built per insect and step: every one with no skin, a few with the default, more again when wide
   CHECK(r0 > 0.99);

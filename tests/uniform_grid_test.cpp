@@ -754,6 +754,34 @@ TEST_CASE("UniformGrid gatherCell and filter match brute force", "[grid]") {
   }
 }
 
+// For every stride-th non-empty cell c, its block (gatherCell(c, cell)) must hold every grid point within
+// coveredRadius of each point of c; radius(r) sees each such radius. Returns the points found within them.
+template <typename F>
+std::size_t checkBlocksCover(const UniformGrid& g, float cell, std::size_t stride, F&& radius) {
+  swarmsim::CellBlock block;
+  std::size_t inside = 0;
+  for (std::size_t c = 0; c < g.cellCount(); c += stride) {
+    if (g.cellBegin(c) == g.cellEnd(c)) continue;
+    g.gatherCell(c, cell, block);
+    std::vector<std::uint32_t> in(block.index.begin(), block.index.begin() + static_cast<std::ptrdiff_t>(block.size));
+    std::sort(in.begin(), in.end());
+    for (std::uint32_t k = g.cellBegin(c); k < g.cellEnd(c); ++k) {
+      const float qx = g.sortedX()[k], qy = g.sortedY()[k], qz = g.sortedZ()[k];
+      const float r = g.coveredRadius(block, qx, qy, qz);
+      radius(r);
+      for (std::uint32_t j = 0; j < g.size(); ++j) {
+        const float dx = g.sortedX()[j] - qx, dy = g.sortedY()[j] - qy, dz = g.sortedZ()[j] - qz;
+        if (dx * dx + dy * dy + dz * dz > r * r) continue;
+        ++inside;
+        if (!std::binary_search(in.begin(), in.end(), j)) {
+          FAIL_CHECK("point " << j << " within " << r << " of " << k << " is not in the block");
+        }
+      }
+    }
+  }
+  return inside;
+}
+
 TEST_CASE("UniformGrid coveredRadius: every point within it of a query is in the gathered block", "[grid]") {
   // the shape model takes an insect's nearest neighbours from its cell's block when they lie within
   // coveredRadius; a point missed there would silently change F_int
@@ -767,29 +795,12 @@ TEST_CASE("UniformGrid coveredRadius: every point within it of a query is in the
   for (const float cell : {0.3f, 0.5f, 0.91f}) {
     UniformGrid g;
     build(g, p, cell);
-    swarmsim::CellBlock block;
-    std::size_t checked = 0, bounded = 0, inside = 0;
-    for (std::size_t c = 0; c < g.cellCount(); ++c) {
-      if (g.cellBegin(c) == g.cellEnd(c)) continue;
-      g.gatherCell(c, cell, block);
-      std::vector<std::uint32_t> in(block.index.begin(), block.index.begin() + static_cast<std::ptrdiff_t>(block.size));
-      std::sort(in.begin(), in.end());
-      for (std::uint32_t k = g.cellBegin(c); k < g.cellEnd(c); ++k) {
-        const float qx = g.sortedX()[k], qy = g.sortedY()[k], qz = g.sortedZ()[k];
-        const float r = g.coveredRadius(block, qx, qy, qz);
-        CHECK(r >= 0.999f * cell);  // at least one cell: the block is the cell and its 26 neighbours
-        if (r < 1e30f) ++bounded;
-        for (std::uint32_t j = 0; j < g.size(); ++j) {
-          const float dx = g.sortedX()[j] - qx, dy = g.sortedY()[j] - qy, dz = g.sortedZ()[j] - qz;
-          if (dx * dx + dy * dy + dz * dz > r * r) continue;
-          ++inside;
-          if (!std::binary_search(in.begin(), in.end(), j)) {
-            FAIL_CHECK("point " << j << " within " << r << " of " << k << " is not in the block");
-          }
-        }
-        ++checked;
-      }
-    }
+    std::size_t checked = 0, bounded = 0;
+    const std::size_t inside = checkBlocksCover(g, cell, 1, [&](float r) {
+      CHECK(r >= 0.999f * cell);  // at least one cell: the block is the cell and its 26 neighbours
+      if (r < 1e30f) ++bounded;
+      ++checked;
+    });
     CHECK(checked == p.x.size());
     CHECK(bounded > checked / 2);     // not vacuous: most blocks are bounded by inner cell faces
     CHECK(inside > 2 * checked);      // and hold points within the radius
@@ -865,24 +876,7 @@ TEST_CASE("UniformGrid moveSorted: queries on kept cells find what a grid built 
       }
     }
     // a cell's block holds every point within coveredRadius of the cell's points, wherever they went
-    swarmsim::CellBlock block;
-    for (std::size_t c = 0; c < g.cellCount(); c += 7) {
-      if (g.cellBegin(c) == g.cellEnd(c)) continue;
-      g.gatherCell(c, cell, block);
-      std::vector<std::uint32_t> in(block.index.begin(), block.index.begin() + static_cast<std::ptrdiff_t>(block.size));
-      std::sort(in.begin(), in.end());
-      for (std::uint32_t k = g.cellBegin(c); k < g.cellEnd(c); ++k) {
-        const float qx = g.sortedX()[k], qy = g.sortedY()[k], qz = g.sortedZ()[k];
-        const float r = g.coveredRadius(block, qx, qy, qz);
-        for (std::uint32_t j = 0; j < g.size(); ++j) {
-          const float dx = g.sortedX()[j] - qx, dy = g.sortedY()[j] - qy, dz = g.sortedZ()[j] - qz;
-          if (dx * dx + dy * dy + dz * dz > r * r) continue;
-          if (!std::binary_search(in.begin(), in.end(), j)) {
-            FAIL_CHECK("point " << j << " within " << r << " of " << k << " is not in the block");
-          }
-        }
-      }
-    }
+    CHECK(checkBlocksCover(g, cell, 7, [](float) {}) > 0);
     // every point's own cell is within reach of a query of radius 0 about it (the queries reach slack() farther)
     for (std::size_t c = 0; c < g.cellCount(); ++c) {
       const int cx = static_cast<int>(c % static_cast<std::size_t>(g.dim(0)));
