@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "core/lanes.hpp"
 #include "core/parallel.hpp"
 
 #include "geometry/obstacles.hpp"
@@ -29,6 +30,10 @@ NoiseField::NoiseField(NoiseFieldKind kind, const NoiseParams& params, const Aab
     potential_ = std::make_shared<NoisePotential>(params);
     step_ = 0.1 * edge;
     exactFrom_ = potential_->d0() + 1.7320508 * step_;
+    exactFromF_ = static_cast<float>(exactFrom_);
+    if (static_cast<double>(exactFromF_) < exactFrom_) {
+      exactFromF_ = std::nextafter(exactFromF_, std::numeric_limits<float>::infinity());
+    }
     if (boundary_ && kind_ == NoiseFieldKind::kCurl) buildFloor();
     return;
   }
@@ -84,6 +89,64 @@ bool NoiseField::exactCurlAt(const Vec3& x) const {
   return sample(x) >= exactFrom_;
 }
 
+#if SWARMSIM_X86_LANES
+namespace {
+
+// the floor test of exactCurlAt for eight points: Grid3::Sampler::base's float arithmetic per axis (the same
+// base cells), the floor block's lower bound by a gather, compared with exactFrom as a float; bit l of the
+// result: point l passes
+SWARMSIM_AVX2 unsigned floorPass8(const float* x, const float* y, const float* z, const float mn[3], const float cell[3],
+                                  const int last[3], const int dims[3], const float* floor, float from) {
+  const float* p[3] = {x, y, z};
+  __m256i block[3];
+  for (int a = 0; a < 3; ++a) {
+    const __m256 t = _mm256_sub_ps(_mm256_div_ps(_mm256_sub_ps(_mm256_loadu_ps(p[a]), _mm256_set1_ps(mn[a])),
+                                                 _mm256_set1_ps(cell[a])),
+                                   _mm256_set1_ps(0.5f));
+    const __m256i inside = _mm256_castps_si256(_mm256_cmp_ps(t, _mm256_setzero_ps(), _CMP_GT_OQ));
+    const __m256i beyond =
+        _mm256_castps_si256(_mm256_cmp_ps(t, _mm256_set1_ps(static_cast<float>(last[a])), _CMP_GE_OQ));
+    __m256i base = _mm256_blendv_epi8(_mm256_cvttps_epi32(t), _mm256_set1_epi32(std::max(0, last[a] - 1)), beyond);
+    base = _mm256_and_si256(base, inside);  // not above 0 (or NaN): cell 0
+    block[a] = _mm256_srli_epi32(base, 3);  // / kFloorBlock (8)
+  }
+  const __m256i fi = _mm256_add_epi32(
+      _mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(block[2], _mm256_set1_epi32(dims[1])), block[1]),
+                         _mm256_set1_epi32(dims[0])),
+      block[0]);
+  const __m256 f = _mm256_i32gather_ps(floor, fi, 4);
+  return static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(f, _mm256_set1_ps(from), _CMP_GE_OQ)));
+}
+
+}  // namespace
+#endif
+
+void NoiseField::exactCurlBatch(const float* x, const float* y, const float* z, std::size_t n, bool* exact) const {
+  std::size_t i = 0;
+#if SWARMSIM_X86_LANES
+  static_assert(kFloorBlock == 8, "floorPass8 divides by 8");
+  const LaneSet lanes = laneSet();
+  if (boundary_ && !floor_.empty() && (lanes == LaneSet::kAvx2 || lanes == LaneSet::kAvx512)) {
+    const GridSpec& g = boundary_->spec;
+    float mn[3], cell[3];
+    int last[3];
+    for (int a = 0; a < 3; ++a) {  // as Grid3::Sampler has them
+      mn[a] = static_cast<float>(g.min[a]);
+      cell[a] = static_cast<float>(g.cell[a]);
+      last[a] = g.n[a] - 1;
+    }
+    for (; i + kLanes <= n; i += kLanes) {
+      const unsigned pass =
+          floorPass8(x + i, y + i, z + i, mn, cell, last, floorDims_.data(), floor_.data(), exactFromF_);
+      for (std::size_t l = 0; l < kLanes; ++l) {
+        exact[i + l] = (pass >> l & 1u) != 0 || exactCurlAt(Vec3(x[i + l], y[i + l], z[i + l]));
+      }
+    }
+  }
+#endif
+  for (; i < n; ++i) exact[i] = exactCurlAt(Vec3(x[i], y[i], z[i]));
+}
+
 Vec3 NoiseField::evaluate(const Vec3& x) const {
   const Vec3d p = x.cast<double>();
   if (kind_ == NoiseFieldKind::kPerlin) return (potential_->noise(p) * gain_).cast<float>();
@@ -123,7 +186,7 @@ void NoiseField::evaluateBatch(const float* x, const float* y, const float* z, s
   std::size_t slot[kBlock];
   for (std::size_t start = 0; start < n; start += kBlock) {
     const std::size_t m = std::min(kBlock, n - start);
-    for (std::size_t j = 0; j < m; ++j) exact[j] = exactCurlAt(Vec3(x[start + j], y[start + j], z[start + j]));
+    exactCurlBatch(x + start, y + start, z + start, m, exact);
     std::size_t k = 0;
     for (std::size_t j = 0; j < m; ++j) {
       const std::size_t i = start + j;

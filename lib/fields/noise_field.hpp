@@ -49,6 +49,9 @@ class NoiseField {
   Vec3 evaluate(const Vec3& x) const;
   // direct curl: whether x is far enough from the boundary for the exact curl (evaluate's test)
   bool exactCurlAt(const Vec3& x) const;
+  // exactCurlAt of the n points (x[i], y[i], z[i]) into exact[i]; on AVX2 the floor test of eight at a time,
+  // then exactCurlAt of those it does not pass (the same answers)
+  void exactCurlBatch(const float* x, const float* y, const float* z, std::size_t n, bool* exact) const;
   void buildFloor();
   // direct curl near the boundary: central differences of the blended potential at p
   Vec3 blendedCurl(const Vec3d& p) const;
@@ -66,6 +69,7 @@ class NoiseField {
   std::vector<float> floor_;
   std::array<int, 3> floorDims_ = {0, 0, 0};
   double exactFrom_ = 0.0;  // the distance from which the curl is exact
+  float exactFromF_ = 0.0f;  // the least float f with f >= exactFrom_ (a float compare with the same answer)
 };
 
 }  // namespace swarmsim
