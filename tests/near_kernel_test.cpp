@@ -3,6 +3,7 @@
 // against the scalar sums of shape.hpp (ShapeConstraintSum, ZonalSum) over the same entries.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <random>
@@ -144,6 +145,19 @@ TEST_CASE("near kernels: F_con and F_int sums equal the scalar ones, and AVX equ
 #if SWARMSIM_X86_LANES
     if (__builtin_cpu_supports("avx")) CHECK(sameBits(zonalForce(m, zl, copy, true), fz));
 #endif
+    // the same sum straight from the points' rows (position, 0, velocity, 0; a far row at n), on AVX2
+    if (zonalFromRows(laneSet())) {
+      AlignedFloats store;
+      float* rows = store.resize(kRowFloats * (n + 1));
+      for (std::size_t i = 0; i <= n; ++i) {
+        const Vec3 p = i < n ? pts[i] : Vec3::Constant(3.0e38f), v = i < n ? vel[i] : Vec3::Zero();
+        const float row[kRowFloats] = {p.x(), p.y(), p.z(), 0.0f, v.x(), v.y(), v.z(), 0.0f};
+        std::copy(row, row + kRowFloats, rows + kRowFloats * i);
+      }
+      std::vector<std::uint32_t> js(n + kLanes);
+      for (std::size_t i = 1; i < n; ++i) js[i - 1] = static_cast<std::uint32_t>(i);
+      CHECK(sameBits(zonalForceRows(m, js.data(), rows, static_cast<std::uint32_t>(n), q, vq, zl), fz));
+    }
   }
 }
 

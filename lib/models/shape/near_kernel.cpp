@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include "core/lanes.hpp"
 
@@ -46,45 +47,59 @@ inline void constraintLanes(const NearScratch& s, std::size_t m, float threshold
   count = n;
 }
 
-// F_int's zonal sums over m (a multiple of kLanes) entries: out[3 z + a] the sum of zone z's unit vectors
-// (axis a), out[9 + z] how many entries zone z has
+// F_int's zonal sums: one block of eight entries added to acc (acc[3 z + a]: zone z's unit vectors, axis a;
+// acc[9 + z]: how many entries zone z has)
 template <typename L>
-inline void zonalLanes(const NearScratch& s, std::size_t m, const ZoneLanes& z, float out[12]) {
+__attribute__((always_inline)) inline void zonalBlock(typename L::V dx, typename L::V dy, typename L::V dz,
+                                                      typename L::V d2, typename L::V ux, typename L::V uy,
+                                                      typename L::V uz, const ZoneLanes& z, typename L::V acc[12]) {
   using V = typename L::V;
-  V acc[12];
-  for (V& a : acc) a = L::set1(0.0f);
   const V one = L::set1(1.0f), tiny = L::set1(kTiny);
   const V rep2 = L::set1(z.rep2), ali2 = L::set1(z.ali2), att2 = L::set1(z.att2);
-  for (std::size_t e = 0; e < m; e += kLanes) {
-    const V dx = L::load(s.dx.data() + e), dy = L::load(s.dy.data() + e), dz = L::load(s.dz.data() + e);
-    const V ux = L::load(s.ux.data() + e), uy = L::load(s.uy.data() + e), uz = L::load(s.uz.data() + e);
-    const V d2 = L::load(s.d2.data() + e);
-    const V u2 = L::add(L::add(L::mul(ux, ux), L::mul(uy, uy)), L::mul(uz, uz));
-    const V inRep = L::lt(d2, rep2), inNear = L::lt(d2, ali2);
-    const V inAli = L::andnot(inRep, inNear), inAtt = L::andnot(inNear, L::le(d2, att2));
-    const V invd = L::div(one, L::sqrt(L::max(d2, tiny)));
-    const V invu = L::div(one, L::sqrt(L::max(u2, tiny)));
-    const V wr = L::band(inRep, invd), wl = L::band(inAli, invu), wa = L::band(inAtt, invd);
-    acc[0] = L::add(acc[0], L::mul(dx, wr));
-    acc[1] = L::add(acc[1], L::mul(dy, wr));
-    acc[2] = L::add(acc[2], L::mul(dz, wr));
-    acc[3] = L::add(acc[3], L::mul(ux, wl));
-    acc[4] = L::add(acc[4], L::mul(uy, wl));
-    acc[5] = L::add(acc[5], L::mul(uz, wl));
-    acc[6] = L::add(acc[6], L::mul(dx, wa));
-    acc[7] = L::add(acc[7], L::mul(dy, wa));
-    acc[8] = L::add(acc[8], L::mul(dz, wa));
-    acc[9] = L::add(acc[9], L::band(inRep, one));  // counts as floats: exact far beyond any K
-    acc[10] = L::add(acc[10], L::band(inAli, one));
-    acc[11] = L::add(acc[11], L::band(inAtt, one));
-  }
-  // every lane sum (an empty zone's are not used), eight at a time
+  const V u2 = L::add(L::add(L::mul(ux, ux), L::mul(uy, uy)), L::mul(uz, uz));
+  const V inRep = L::lt(d2, rep2), inNear = L::lt(d2, ali2);
+  const V inAli = L::andnot(inRep, inNear), inAtt = L::andnot(inNear, L::le(d2, att2));
+  const V invd = L::div(one, L::sqrt(L::max(d2, tiny)));
+  const V invu = L::div(one, L::sqrt(L::max(u2, tiny)));
+  const V wr = L::band(inRep, invd), wl = L::band(inAli, invu), wa = L::band(inAtt, invd);
+  acc[0] = L::add(acc[0], L::mul(dx, wr));
+  acc[1] = L::add(acc[1], L::mul(dy, wr));
+  acc[2] = L::add(acc[2], L::mul(dz, wr));
+  acc[3] = L::add(acc[3], L::mul(ux, wl));
+  acc[4] = L::add(acc[4], L::mul(uy, wl));
+  acc[5] = L::add(acc[5], L::mul(uz, wl));
+  acc[6] = L::add(acc[6], L::mul(dx, wa));
+  acc[7] = L::add(acc[7], L::mul(dy, wa));
+  acc[8] = L::add(acc[8], L::mul(dz, wa));
+  acc[9] = L::add(acc[9], L::band(inRep, one));  // counts as floats: exact far beyond any K
+  acc[10] = L::add(acc[10], L::band(inAli, one));
+  acc[11] = L::add(acc[11], L::band(inAtt, one));
+}
+
+// every lane sum of acc (an empty zone's are not used), eight at a time, to out[12]
+template <typename L>
+__attribute__((always_inline)) inline void zonalSums(const typename L::V acc[12], float out[12]) {
+  using V = typename L::V;
   const V zero = L::set1(0.0f);
   const V rest[8] = {acc[8], acc[9], acc[10], acc[11], zero, zero, zero, zero};
   float tail[8];
   treeSums8<L>(acc, out);
   treeSums8<L>(rest, tail);
   for (int c = 8; c < 12; ++c) out[c] = tail[c - 8];
+}
+
+// F_int's zonal sums over m (a multiple of kLanes) entries of scratch.dx/dy/dz/d2/ux/uy/uz, to out[12]
+template <typename L>
+inline void zonalLanes(const NearScratch& s, std::size_t m, const ZoneLanes& z, float out[12]) {
+  using V = typename L::V;
+  V acc[12];
+  for (V& a : acc) a = L::set1(0.0f);
+  for (std::size_t e = 0; e < m; e += kLanes) {
+    zonalBlock<L>(L::load(s.dx.data() + e), L::load(s.dy.data() + e), L::load(s.dz.data() + e),
+                  L::load(s.d2.data() + e), L::load(s.ux.data() + e), L::load(s.uy.data() + e),
+                  L::load(s.uz.data() + e), z, acc);
+  }
+  zonalSums<L>(acc, out);
 }
 
 // the candidates' positions for classifyLanes: eight at a time from scratch.cx/cy/cz
@@ -189,6 +204,38 @@ SWARMSIM_AVX2 __attribute__((flatten)) void gatherClassifyAvx2(std::size_t m, co
   classifyLanes<AvxLanes, true>(m, qx, qy, qz, threshold, near2, reach2, s, counts,
                                 RowPositions{cand, m, rows, far, s.cj.data()});
 }
+// zonalLanes of the neighbours at sorted positions js[0, m), from their rows: each row (x, y, z, 0, vx, vy, vz, 0)
+// less (q, 0, v, 0), eight rows transposed to the lanes (row q in lane q % 8), the squared distance as
+// classifyLanes computes it; js is padded to whole lanes with the far row (beyond every zone)
+SWARMSIM_AVX2 __attribute__((flatten)) void zonalRowsAvx2(std::size_t m, const std::uint32_t* js, const float* rows,
+                                                          float qx, float qy, float qz, float vx,
+                                                          float vy, float vz, const ZoneLanes& z, float out[12]) {
+  using V = AvxLanes::V;
+  V acc[12];
+  for (V& a : acc) a = AvxLanes::set1(0.0f);
+  const __m256 self = _mm256_setr_ps(qx, qy, qz, 0.0f, vx, vy, vz, 0.0f);
+  for (std::size_t e = 0; e < m; e += kLanes) {
+    __m256 r[kLanes];
+    for (std::size_t l = 0; l < kLanes; ++l) {
+      r[l] = _mm256_sub_ps(_mm256_load_ps(rows + kRowFloats * std::size_t{js[e + l]}), self);
+    }
+    const __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]), t1 = _mm256_unpackhi_ps(r[0], r[1]);
+    const __m256 t2 = _mm256_unpacklo_ps(r[2], r[3]), t3 = _mm256_unpackhi_ps(r[2], r[3]);
+    const __m256 t4 = _mm256_unpacklo_ps(r[4], r[5]), t5 = _mm256_unpackhi_ps(r[4], r[5]);
+    const __m256 t6 = _mm256_unpacklo_ps(r[6], r[7]), t7 = _mm256_unpackhi_ps(r[6], r[7]);
+    // rows 0-3 | 4-7 of each: (x | vx), (y | vy), (z | vz)
+    const __m256 a0 = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(1, 0, 1, 0)), b0 = _mm256_shuffle_ps(t4, t6, _MM_SHUFFLE(1, 0, 1, 0));
+    const __m256 a1 = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(3, 2, 3, 2)), b1 = _mm256_shuffle_ps(t4, t6, _MM_SHUFFLE(3, 2, 3, 2));
+    const __m256 a2 = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(1, 0, 1, 0)), b2 = _mm256_shuffle_ps(t5, t7, _MM_SHUFFLE(1, 0, 1, 0));
+    const V dx{_mm256_permute2f128_ps(a0, b0, 0x20)}, ux{_mm256_permute2f128_ps(a0, b0, 0x31)};
+    const V dy{_mm256_permute2f128_ps(a1, b1, 0x20)}, uy{_mm256_permute2f128_ps(a1, b1, 0x31)};
+    const V dz{_mm256_permute2f128_ps(a2, b2, 0x20)}, uz{_mm256_permute2f128_ps(a2, b2, 0x31)};
+    const V d2 = AvxLanes::add(AvxLanes::add(AvxLanes::mul(dx, dx), AvxLanes::mul(dy, dy)), AvxLanes::mul(dz, dz));
+    zonalBlock<AvxLanes>(dx, dy, dz, d2, ux, uy, uz, z, acc);
+  }
+  zonalSums<AvxLanes>(acc, out);
+}
+
 __attribute__((flatten)) void constraintSse(const NearScratch& s, std::size_t m, float t, float c, float o[3][kLanes],
                                             int& n) {
   constraintLanes<SseLanes>(s, m, t, c, o, n);
@@ -218,7 +265,7 @@ void NearScratch::growCandidates(std::size_t n) {
   const std::size_t cap = padded(n + n / 2 + 32);
   reserve(cap);
   for (auto* v : {&cx, &cy, &cz, &cd2}) v->resize(cap);
-  for (auto* v : {&cj, &conIdx, &nearIdx, &mdeIdx}) v->resize(cap);
+  for (auto* v : {&cj, &conIdx, &nearIdx, &mdeIdx, &chosen}) v->resize(cap);
   if (keys.size() < cap) keys.resize(cap);
   room_ = cap;
 }
@@ -289,6 +336,44 @@ void gatherClassify(std::size_t m, const std::uint32_t* cand, const float* rows,
   classifyCandidates(m, q, threshold, near2, reach2, s, lanes, counts);
 }
 
+namespace {
+// F_int from the zonal sums: Σ_k ω_k / N_k (zone k's sum), zone rep with the sign −1
+Vec3 zonalResult(const ZoneLanes& z, const float out[12]) {
+  Vec3 f = Vec3::Zero();
+  const float sign[3] = {-1.0f, 1.0f, 1.0f};
+  for (int zone = 0; zone < 3; ++zone) {
+    if (out[9 + zone] == 0.0f) continue;
+    const Vec3 sum(out[3 * zone], out[3 * zone + 1], out[3 * zone + 2]);
+    f += sum * (sign[zone] * z.w[zone] / out[9 + zone]);
+  }
+  return f;
+}
+}  // namespace
+
+bool zonalFromRows(LaneSet lanes) {
+#if SWARMSIM_X86_LANES
+  return lanes == LaneSet::kAvx2 || lanes == LaneSet::kAvx512;
+#else
+  (void)lanes;
+  return false;
+#endif
+}
+
+Vec3 zonalForceRows(std::size_t m, std::uint32_t* js, const float* rows, std::uint32_t far, const Vec3& q,
+                    const Vec3& v, const ZoneLanes& z) {
+  float out[12];
+  for (std::size_t e = m; e % kLanes != 0; ++e) js[e] = far;
+#if SWARMSIM_X86_LANES
+  zonalRowsAvx2(m, js, rows, q.x(), q.y(), q.z(), v.x(), v.y(), v.z(), z, out);
+#else
+  (void)rows;
+  (void)q;
+  (void)v;
+  throw std::logic_error("zonalForceRows without AVX2");
+#endif
+  return zonalResult(z, out);
+}
+
 Vec3 zonalForce(std::size_t m, const ZoneLanes& z, NearScratch& s, bool avx) {
   const std::size_t mp = padded(m);
   s.reserve(m + kLanes);
@@ -304,14 +389,7 @@ Vec3 zonalForce(std::size_t m, const ZoneLanes& z, NearScratch& s, bool avx) {
   (void)avx;
   zonalLanes<ScalarLanes>(s, mp, z, out);
 #endif
-  Vec3 f = Vec3::Zero();
-  const float sign[3] = {-1.0f, 1.0f, 1.0f};
-  for (int zone = 0; zone < 3; ++zone) {
-    if (out[9 + zone] == 0.0f) continue;
-    const Vec3 sum(out[3 * zone], out[3 * zone + 1], out[3 * zone + 2]);
-    f += sum * (sign[zone] * z.w[zone] / out[9 + zone]);
-  }
-  return f;
+  return zonalResult(z, out);
 }
 
 }  // namespace swarmsim

@@ -26,6 +26,7 @@ struct alignas(64) NearScratch {
   std::vector<float> cx, cy, cz, cd2;
   std::vector<std::uint32_t> cj, ids;
   std::vector<std::uint32_t> conIdx, nearIdx, mdeIdx;  // classifyCandidates' output
+  std::vector<std::uint32_t> chosen;                   // F_int's neighbours (sorted positions), for zonalForceRows
   std::vector<std::uint64_t> sortKeys;                 // sortById's (near_list.hpp)
   std::size_t rebuilds = 0;  // near lists this thread built from the grid (a statistic: one count per thread,
                              // so that no cache line is shared between the cores)
@@ -95,5 +96,13 @@ struct ZoneLanes {
 // ali [r_rep, r_ali) S = 0, att [r_ali, r_att] S = +1, nothing beyond r_att; a zero d or u adds a zero
 // vector but counts
 Vec3 zonalForce(std::size_t m, const ZoneLanes& zones, NearScratch& scratch, bool avx);
+
+// zonalForce of the m neighbours at sorted positions js[0, m), taken from their rows (gatherClassify's, with
+// the velocity in floats 4-6) less the insect's position q and velocity v: the same result as zonalForce of
+// the same entries, without gathering them first. js is padded here with the far row to whole lanes (room
+// for it needed). Only where zonalFromRows(lanes) (AVX2).
+bool zonalFromRows(LaneSet lanes);
+Vec3 zonalForceRows(std::size_t m, std::uint32_t* js, const float* rows, std::uint32_t far, const Vec3& q,
+                    const Vec3& v, const ZoneLanes& zones);
 
 }  // namespace swarmsim

@@ -403,6 +403,7 @@ class ShapeModel final : public Model {
     const ZoneLanes zoneLanes = {zones.rRep2, zones.rAli2, zones.rAtt2, {zones.w[0], zones.w[1], zones.w[2]}};
     const LaneSet lanes = laneSet();
     const bool avx = lanes != LaneSet::kSse;  // for the kernels without an AVX2 variant
+    const bool rowsZonal = zonalFromRows(lanes);
     // F_con (into fCon) and F_int (returned) of sorted insect k from its near-list candidates. Every sum runs
     // over the entries that count, packed in id order, so it depends on the positions only.
     const float mdReach2 = mdReach * mdReach * (1.0f + 1e-5f);  // float slack: a larger radius is harmless
@@ -497,6 +498,17 @@ class ShapeModel final : public Model {
       for (std::size_t c = 0; c < std::min(mm, kMdeRoom); ++c) mdeNear_[k * kMdeRoom + c] = cand[ns.mdeIdx[c]];
       // F_int over the K nearest within r_att, in id order
       mk = keepSmallest(keys, mk, K);
+      if (rowsZonal) {  // straight from their rows: their sorted positions, and the farthest (the largest key)
+        std::uint64_t top = 0;
+        std::uint32_t* js = ns.chosen.data();  // (room for the candidates: gatherClassify)
+        for (std::size_t q = 0; q < mk; ++q) {
+          js[q] = ns.cj[keyIndex(keys[q])];
+          top = std::max(top, keys[q]);
+        }
+        reach_[k] = mk == K ? std::sqrt(keyDistance2(top)) : rAtt;
+        return zonalForceRows(mk, js, rows, static_cast<std::uint32_t>(n), Vec3(qx, qy, qz),
+                              Vec3(vx_[k], vy_[k], vz_[k]), zoneLanes);
+      }
       float far2 = 0.0f;
       const float vkx = vx_[k], vky = vy_[k], vkz = vz_[k];
       for (std::size_t q = 0; q < mk; ++q) {
