@@ -620,6 +620,10 @@ class ShapeModel final : public Model {
         return (d2 < md2 && d2 > 0.0f) || (tx_[j] == qx && ty_[j] == qy && tz_[j] == qz);
       };
       std::size_t m = mdeCount_[k];
+      if (m == 0) {  // nobody within MDE's reach (most insects): no push (the + 0 of an empty one)
+        x += Vec3::Zero();
+        return false;
+      }
       const std::uint32_t* cand = mdeNear_.data() + k * kMdeRoom;
       if (m == kMdeNone) cand = lists_.stored(static_cast<std::uint32_t>(k), m);
       if (!cand) {  // no list (too many candidates to keep): the grid's, those that count, by id
