@@ -87,7 +87,7 @@ TEST_CASE("near kernels: F_con and F_int sums equal the scalar ones, and AVX equ
           "[shape][lanes]") {
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-  for (const std::size_t n : {1u, 2u, 7u, 8u, 9u, 31u, 200u}) {
+  for (const std::size_t n : {1u, 2u, 7u, 8u, 9u, 12u, 16u, 17u, 18u, 31u, 200u}) {
     std::vector<Vec3> pts(n), vel(n);
     for (std::size_t i = 0; i < n; ++i) {
       pts[i] = Vec3(u(rng), u(rng), u(rng));
@@ -146,7 +146,9 @@ TEST_CASE("near kernels: F_con and F_int sums equal the scalar ones, and AVX equ
     if (__builtin_cpu_supports("avx")) CHECK(sameBits(zonalForce(m, zl, copy, true), fz));
 #endif
     // the same sum straight from the points' rows (position, 0, velocity, 0; a far row at n), on AVX2
-    if (zonalFromRows(laneSet())) {
+    for (const LaneSet set : swarmsim_test::laneSetsOfThisCpu()) {
+      if (!zonalFromRows(set)) continue;
+      INFO("lane set " << static_cast<int>(set));
       AlignedFloats store;
       float* rows = store.resize(kRowFloats * (n + 1));
       for (std::size_t i = 0; i <= n; ++i) {
@@ -154,20 +156,20 @@ TEST_CASE("near kernels: F_con and F_int sums equal the scalar ones, and AVX equ
         const float row[kRowFloats] = {p.x(), p.y(), p.z(), 0.0f, v.x(), v.y(), v.z(), 0.0f};
         std::copy(row, row + kRowFloats, rows + kRowFloats * i);
       }
-      std::vector<std::uint32_t> js(n + kLanes);
+      std::vector<std::uint32_t> js(n + 16);
       for (std::size_t i = 1; i < n; ++i) js[i - 1] = static_cast<std::uint32_t>(i);
-      CHECK(sameBits(zonalForceRows(m, js.data(), rows, static_cast<std::uint32_t>(n), q, vq, zl), fz));
+      CHECK(sameBits(zonalForceRows(m, js.data(), rows, static_cast<std::uint32_t>(n), q, vq, zl, set), fz));
     }
   }
 }
 
-TEST_CASE("near kernels: classifyCandidates sorts each candidate into its classes, the same on every lane set",
+TEST_CASE("near kernels: classifyCandidates and gatherClassify sort each candidate into its classes, the same on every lane set",
           "[shape][lanes]") {
   std::mt19937 rng(9);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   const std::vector<LaneSet> sets = swarmsim_test::laneSetsOfThisCpu();
   const float threshold = 0.9f, near2 = 0.4f, reach2 = 0.1f;
-  for (const std::size_t m : {0u, 1u, 7u, 8u, 9u, 64u, 301u}) {
+  for (const std::size_t m : {0u, 1u, 7u, 8u, 9u, 15u, 16u, 17u, 33u, 64u, 301u}) {
     std::vector<Vec3> pts(m);
     for (auto& p : pts) p = Vec3(u(rng), u(rng), u(rng));
     const Vec3 q(0.1f, -0.2f, 0.05f);
@@ -202,6 +204,30 @@ TEST_CASE("near kernels: classifyCandidates sorts each candidate into its classe
         const float dx = pts[e].x() - q.x(), dy = pts[e].y() - q.y(), dz = pts[e].z() - q.z();
         CHECK((ns.cx[e] == dx && ns.cy[e] == dy && ns.cz[e] == dz));
         CHECK(ns.cd2[e] == dx * dx + dy * dy + dz * dz);
+      }
+      // the same from rows: candidate e is point e at sorted position m - 1 - e, the far row at m
+      AlignedFloats store;
+      float* rows = store.resize(kRowFloats * (m + 1));
+      std::vector<std::uint32_t> cand(m + 16);
+      for (std::size_t e = 0; e <= m; ++e) {
+        const Vec3 p = e < m ? pts[e] : Vec3::Constant(3.0e38f);
+        const std::size_t at = e < m ? m - 1 - e : m;
+        const float row[kRowFloats] = {p.x(), p.y(), p.z(), 0.0f, 1.0f, 2.0f, 3.0f, 0.0f};
+        std::copy(row, row + kRowFloats, rows + kRowFloats * at);
+        if (e < m) cand[e] = static_cast<std::uint32_t>(at);
+      }
+      NearScratch gs;
+      std::size_t gotCounts[3];
+      gatherClassify(m, cand.data(), rows, static_cast<std::uint32_t>(m), q, threshold, near2, reach2, gs, set,
+                     gotCounts);
+      const std::vector<std::uint32_t>* fromRows[3] = {&gs.conIdx, &gs.nearIdx, &gs.mdeIdx};
+      for (int c = 0; c < 3; ++c) {
+        REQUIRE(gotCounts[c] == want[c].size());
+        CHECK(std::equal(want[c].begin(), want[c].end(), fromRows[c]->begin()));
+      }
+      for (std::size_t e = 0; e < m; ++e) {
+        CHECK(gs.cj[e] == cand[e]);
+        CHECK((gs.cx[e] == ns.cx[e] && gs.cy[e] == ns.cy[e] && gs.cz[e] == ns.cz[e] && gs.cd2[e] == ns.cd2[e]));
       }
     }
   }

@@ -26,7 +26,10 @@ struct alignas(64) NearScratch {
   std::vector<float> cx, cy, cz, cd2;
   std::vector<std::uint32_t> cj, ids;
   std::vector<std::uint32_t> conIdx, nearIdx, mdeIdx;  // classifyCandidates' output
-  std::vector<std::uint32_t> chosen;                   // F_int's neighbours (sorted positions), for zonalForceRows
+  // a block of insects' F_int neighbours (sorted positions, a fixed room each), how many, and F_con
+  std::vector<std::uint32_t> blockJs;
+  std::vector<std::size_t> blockMk;
+  std::vector<Vec3> blockCon;
   std::vector<std::uint64_t> sortKeys;                 // sortById's (near_list.hpp)
   std::size_t rebuilds = 0;  // near lists this thread built from the grid (a statistic: one count per thread,
                              // so that no cache line is shared between the cores)
@@ -99,10 +102,11 @@ Vec3 zonalForce(std::size_t m, const ZoneLanes& zones, NearScratch& scratch, boo
 
 // zonalForce of the m neighbours at sorted positions js[0, m), taken from their rows (gatherClassify's, with
 // the velocity in floats 4-6) less the insect's position q and velocity v: the same result as zonalForce of
-// the same entries, without gathering them first. js is padded here with the far row to whole lanes (room
-// for it needed). Only where zonalFromRows(lanes) (AVX2).
+// the same entries, without gathering them first. js is padded here with the far row to whole lanes, or to
+// 16 entries on AVX-512 (room for max(16, m rounded up to 8) needed). Only where zonalFromRows(lanes) (AVX2,
+// AVX-512: the same bits).
 bool zonalFromRows(LaneSet lanes);
 Vec3 zonalForceRows(std::size_t m, std::uint32_t* js, const float* rows, std::uint32_t far, const Vec3& q,
-                    const Vec3& v, const ZoneLanes& zones);
+                    const Vec3& v, const ZoneLanes& zones, LaneSet lanes);
 
 }  // namespace swarmsim

@@ -411,7 +411,10 @@ class ShapeModel final : public Model {
       mdeNear_.resize(n * kMdeRoom);
       mdeCount_.resize(n);
     }
-    const auto nearForces = [&](std::size_t k, NearScratch& ns, Vec3& fCon) -> Vec3 {
+    // (zonalFromRows) F_int is not summed here: its neighbours' sorted positions go to js[0, mkOut), for
+    // zonalForceRows after the block's other insects (the sums of a block's insects then overlap)
+    const auto nearForces = [&](std::size_t k, NearScratch& ns, Vec3& fCon, std::uint32_t* js,
+                                std::size_t& mkOut) -> Vec3 {
       const float qx = sx[k], qy = sy[k], qz = sz[k];
       // last step's data of this insect sit in its state index (last step's sorted position), unless the
       // state is not as last step left it (the step after a resume or a new target)
@@ -500,14 +503,13 @@ class ShapeModel final : public Model {
       mk = keepSmallest(keys, mk, K);
       if (rowsZonal) {  // straight from their rows: their sorted positions, and the farthest (the largest key)
         std::uint64_t top = 0;
-        std::uint32_t* js = ns.chosen.data();  // (room for the candidates: gatherClassify)
         for (std::size_t q = 0; q < mk; ++q) {
           js[q] = ns.cj[keyIndex(keys[q])];
           top = std::max(top, keys[q]);
         }
         reach_[k] = mk == K ? std::sqrt(keyDistance2(top)) : rAtt;
-        return zonalForceRows(mk, js, rows, static_cast<std::uint32_t>(n), Vec3(qx, qy, qz),
-                              Vec3(vx_[k], vy_[k], vz_[k]), zoneLanes);
+        mkOut = mk;
+        return Vec3::Zero();
       }
       float far2 = 0.0f;
       const float vkx = vx_[k], vky = vy_[k], vkz = vz_[k];
@@ -543,7 +545,7 @@ class ShapeModel final : public Model {
       // Newton's second law, unit mass; the fly's top speed
       v += force * dt;
       const float sp = v.norm();
-      if (sp > vmax) v *= vmax / sp;
+      v *= vmax / std::max(sp, vmax);  // without a branch (about half the insects fly at top speed): x / x is 1
       // eq. 8-9: near an obstacle the velocity ramps toward the tangent (only an approach is bent)
       if (obstacles) {
         const float dist = clearance_.distance(x);
@@ -565,11 +567,33 @@ class ShapeModel final : public Model {
       // each thread takes one contiguous range of insects, the same as in the loops before and after this one:
       // most of what it reads it wrote itself (another core's cache lines cost more than the uneven work), and
       // a thread done with its own goes on with what is left of the other's
-      parallelForBalanced(n, 64, [&](std::size_t k) {
+      // in blocks of kBlock insects: first each one's neighbours (and, without the rows' sums, its whole step),
+      // then F_int from the rows and the rest of the step of each (short and independent: the processor
+      // overlaps one insect's square roots and divisions with the next one's)
+      constexpr std::size_t kBlock = 64;
+      // zonalForceRows pads to whole lanes, or to 16 on AVX-512
+      const std::size_t jsRoom = std::max<std::size_t>(16, (K + kLanes - 1) / kLanes * kLanes);
+      parallelRangesBalanced(n, kBlock, [&](std::size_t a, std::size_t b) {
         NearScratch& ns = scratch_[static_cast<std::size_t>(threadIndex())];
-        Vec3 fCon = Vec3::Zero();
-        const Vec3 fInt = nearForces(k, ns, fCon);
-        insect(k, fInt, fCon);
+        if (ns.blockJs.size() < kBlock * jsRoom) ns.blockJs.resize(kBlock * jsRoom);
+        ns.blockMk.resize(kBlock);
+        ns.blockCon.resize(kBlock);
+        for (std::size_t c0 = a; c0 < b; c0 += kBlock) {
+          const std::size_t c1 = std::min(b, c0 + kBlock);
+          for (std::size_t k = c0; k < c1; ++k) {
+            Vec3& fCon = ns.blockCon[k - c0];
+            fCon = Vec3::Zero();
+            const Vec3 fInt = nearForces(k, ns, fCon, ns.blockJs.data() + (k - c0) * jsRoom, ns.blockMk[k - c0]);
+            if (!rowsZonal) insect(k, fInt, fCon);
+          }
+          if (!rowsZonal) continue;
+          for (std::size_t k = c0; k < c1; ++k) {
+            const Vec3 fInt = zonalForceRows(ns.blockMk[k - c0], ns.blockJs.data() + (k - c0) * jsRoom, rows,
+                                             static_cast<std::uint32_t>(n), Vec3(sx[k], sy[k], sz[k]),
+                                             Vec3(vx_[k], vy_[k], vz_[k]), zoneLanes, lanes);
+            insect(k, fInt, ns.blockCon[k - c0]);
+          }
+        }
       });
     } else {
       parallelFor(n, [&](std::size_t k) {
