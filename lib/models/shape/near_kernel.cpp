@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 
 #include "core/lanes.hpp"
@@ -293,12 +294,49 @@ SWARMSIM_AVX512 __attribute__((flatten)) void gatherClassifyAvx512(std::size_t m
     const __mmask16 inCon = _mm512_mask_cmp_ps_mask(_mm512_cmp_ps_mask(man, thr, _CMP_LT_OQ), d2, zero, _CMP_GT_OQ);
     const auto base = static_cast<std::uint32_t>(e);
     nc += packMask16(base, inCon, con + nc);
-    nn += packMask16(base, _mm512_cmp_ps_mask(d2, vnear, _CMP_LE_OQ), nr + nn);
+    const __mmask16 inNear = _mm512_cmp_ps_mask(d2, vnear, _CMP_LE_OQ);
+    _mm512_storeu_ps(s.nearD2.data() + nn, _mm512_maskz_compress_ps(inNear, d2));  // 16 entries each
+    _mm512_storeu_si512(s.nearPos.data() + nn, _mm512_maskz_compress_epi32(inNear, pos));
+    nn += packMask16(base, inNear, nr + nn);
     nm += packMask16(base, _mm512_cmp_ps_mask(d2, vreach, _CMP_LE_OQ), md + nm);
   }
   counts[0] = nc;
   counts[1] = nn;
   counts[2] = nm;
+}
+// nearestPacked on AVX-512: each entry's rank among the live ones is how many come before it in the keys'
+// order (a smaller squared distance, or the same and an earlier entry); those ranked below K are kept. The
+// squared distances are non-negative, so their bits order as they do.
+SWARMSIM_AVX512 __attribute__((flatten)) std::size_t nearestPackedAvx512(std::size_t n, std::size_t K,
+                                                                         const float* nd2,
+                                                                         const std::uint32_t* npos,
+                                                                         std::uint32_t* js, float& far2) {
+  const __mmask16 live = n >= 16 ? __mmask16{0xffff} : static_cast<__mmask16>((1u << n) - 1u);
+  const __m512i d = _mm512_maskz_loadu_epi32(live, nd2);
+  const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  const __m512i one = _mm512_set1_epi32(1);
+  alignas(64) std::uint32_t bits[16];
+  _mm512_store_si512(bits, d);
+  __m512i rank = _mm512_setzero_si512();
+  for (unsigned j = 0; j < 16; ++j) {  // a fixed count: entry j (when live) before each entry it precedes
+    const __m512i b = _mm512_set1_epi32(static_cast<int>(bits[j]));
+    const __mmask16 before =
+        static_cast<__mmask16>(_mm512_cmplt_epu32_mask(b, d) |
+                               (_mm512_cmpeq_epi32_mask(b, d) & _mm512_cmpgt_epi32_mask(lane, _mm512_set1_epi32(static_cast<int>(j)))));
+    const __mmask16 counted = static_cast<__mmask16>(before & (0u - ((live >> j) & 1u)));
+    rank = _mm512_mask_add_epi32(rank, counted, rank, one);
+  }
+  const __mmask16 keep = static_cast<__mmask16>(live & _mm512_cmplt_epu32_mask(rank, _mm512_set1_epi32(static_cast<int>(K))));
+  const __m512i pos = _mm512_maskz_loadu_epi32(live, npos);
+  _mm512_storeu_si512(js, _mm512_maskz_compress_epi32(keep, pos));
+  __m512i x = _mm512_maskz_mov_epi32(keep, d);  // the largest kept (0 elsewhere: no larger)
+  x = _mm512_maskz_max_epu32(0xffff, x, _mm512_maskz_shuffle_i32x4(0xffff, x, x, _MM_SHUFFLE(1, 0, 3, 2)));
+  x = _mm512_maskz_max_epu32(0xffff, x, _mm512_maskz_shuffle_i32x4(0xffff, x, x, _MM_SHUFFLE(2, 3, 0, 1)));
+  x = _mm512_maskz_max_epu32(0xffff, x, _mm512_maskz_shuffle_epi32(0xffff, x, _MM_PERM_BADC));
+  x = _mm512_maskz_max_epu32(0xffff, x, _mm512_maskz_shuffle_epi32(0xffff, x, _MM_PERM_CDAB));
+  const auto top = static_cast<std::uint32_t>(_mm512_cvtsi512_si32(x));
+  std::memcpy(&far2, &top, sizeof far2);
+  return static_cast<std::size_t>(__builtin_popcount(keep));
 }
 SWARMSIM_AVX512 inline __m512 rowPair(const float* rows, std::uint32_t lo, std::uint32_t hi) {
   const __m256 a = _mm256_load_ps(rows + kRowFloats * std::size_t{lo});
@@ -311,10 +349,14 @@ SWARMSIM_AVX512 inline AvxLanes::V lowHalf(__m512 x) {
 SWARMSIM_AVX512 inline AvxLanes::V highHalf(__m512 x) {
   return {_mm256_castpd_ps(_mm512_maskz_extractf64x4_pd(0xf, _mm512_castps_pd(x), 1))};
 }
-// zonalRowsAvx2 of m <= 16 neighbours (js padded with the far row to 16)
-SWARMSIM_AVX512 __attribute__((flatten)) void zonalRowsAvx512(const std::uint32_t* js, const float* rows, float qx,
+// zonalRowsAvx2 of m <= 16 neighbours at js[0, m) (the far row in the lanes from m)
+SWARMSIM_AVX512 __attribute__((flatten)) void zonalRowsAvx512(std::size_t m, const std::uint32_t* given,
+                                                              const float* rows, std::uint32_t far, float qx,
                                                               float qy, float qz, float vx, float vy, float vz,
                                                               const ZoneLanes& z, float out[12]) {
+  const __mmask16 live = static_cast<__mmask16>((1u << m) - 1u);
+  alignas(64) std::uint32_t js[16];
+  _mm512_store_si512(js, _mm512_mask_loadu_epi32(_mm512_set1_epi32(static_cast<int>(far)), live, given));
   const __m256 self8 = _mm256_setr_ps(qx, qy, qz, 0.0f, vx, vy, vz, 0.0f);
   const __m512 self = _mm512_castpd_ps(_mm512_maskz_broadcast_f64x4(0xff, _mm256_castps_pd(self8)));
   __m512 r[8];
@@ -385,7 +427,8 @@ void NearScratch::reserve(std::size_t n) {
 void NearScratch::growCandidates(std::size_t n) {
   const std::size_t cap = padded(n + n / 2 + 32);
   reserve(cap);
-  for (auto* v : {&cx, &cy, &cz, &cd2}) v->resize(cap);
+  for (auto* v : {&cx, &cy, &cz, &cd2, &nearD2}) v->resize(cap);
+  nearPos.resize(cap);
   for (auto* v : {&cj, &conIdx, &nearIdx, &mdeIdx}) v->resize(cap);
   if (keys.size() < cap) keys.resize(cap);
   room_ = cap;
@@ -466,14 +509,35 @@ namespace {
 Vec3 zonalResult(const ZoneLanes& z, const float out[12]) {
   Vec3 f = Vec3::Zero();
   const float sign[3] = {-1.0f, 1.0f, 1.0f};
+  // an empty zone adds sum * 0 (its sum is ±0, so ±0), which leaves f as it is: f starts at +0 and, as a
+  // sum with +0 first, is never −0. So no branch on which zones are empty.
   for (int zone = 0; zone < 3; ++zone) {
-    if (out[9 + zone] == 0.0f) continue;
+    const float count = out[9 + zone];
+    const float scale = sign[zone] * z.w[zone] / std::max(count, 1.0f);
     const Vec3 sum(out[3 * zone], out[3 * zone + 1], out[3 * zone + 2]);
-    f += sum * (sign[zone] * z.w[zone] / out[9 + zone]);
+    f += sum * (count > 0.0f ? scale : 0.0f);
   }
   return f;
 }
 }  // namespace
+
+bool nearestPacked(std::size_t n, std::size_t K, const NearScratch& s, LaneSet lanes, std::uint32_t* js,
+                   std::size_t& kept, float& far2) {
+#if SWARMSIM_X86_LANES
+  if (lanes != LaneSet::kAvx512 || n > 16) return false;
+  kept = nearestPackedAvx512(n, K, s.nearD2.data(), s.nearPos.data(), js, far2);
+  return true;
+#else
+  (void)n;
+  (void)K;
+  (void)s;
+  (void)lanes;
+  (void)js;
+  (void)kept;
+  (void)far2;
+  return false;
+#endif
+}
 
 bool zonalFromRows(LaneSet lanes) {
 #if SWARMSIM_X86_LANES
@@ -489,8 +553,7 @@ Vec3 zonalForceRows(std::size_t m, std::uint32_t* js, const float* rows, std::ui
   float out[12];
 #if SWARMSIM_X86_LANES
   if (lanes == LaneSet::kAvx512 && m <= 16) {
-    for (std::size_t e = m; e < 16; ++e) js[e] = far;
-    zonalRowsAvx512(js, rows, q.x(), q.y(), q.z(), v.x(), v.y(), v.z(), z, out);
+    zonalRowsAvx512(m, js, rows, far, q.x(), q.y(), q.z(), v.x(), v.y(), v.z(), z, out);
     return zonalResult(z, out);
   }
   for (std::size_t e = m; e % kLanes != 0; ++e) js[e] = far;

@@ -26,6 +26,10 @@ struct alignas(64) NearScratch {
   std::vector<float> cx, cy, cz, cd2;
   std::vector<std::uint32_t> cj, ids;
   std::vector<std::uint32_t> conIdx, nearIdx, mdeIdx;  // classifyCandidates' output
+  // on AVX-512, gatherClassify also packs the near class's squared distances and sorted positions (for
+  // nearestPacked)
+  std::vector<float> nearD2;
+  std::vector<std::uint32_t> nearPos;
   // a block of insects' F_int neighbours (sorted positions, a fixed room each), how many, and F_con
   std::vector<std::uint32_t> blockJs;
   std::vector<std::size_t> blockMk;
@@ -80,6 +84,14 @@ class AlignedFloats {
 // `far` holds a point far from everything (the padding of the last lanes)
 void gatherClassify(std::size_t m, const std::uint32_t* cand, const float* rows, std::uint32_t far, const Vec3& q,
                     float threshold, float near2, float reach2, NearScratch& s, LaneSet lanes, std::size_t counts[3]);
+
+// Of the near class that gatherClassify packed on AVX-512 (lanes == kAvx512, at most 16 entries, in
+// scratch.nearD2/nearPos), the K nearest, ties to the earlier entry (keepSmallest's order of the keys
+// neighbourKey(d2, e)), in their given order: their sorted positions to js[0, kept) (16 entries written), the
+// largest of their squared distances to far2 (0 when none is kept); returns kept = min(n, K). Without a
+// branch on the data. False (nothing done) where it does not apply: other lanes, or more than 16 entries.
+bool nearestPacked(std::size_t n, std::size_t K, const NearScratch& scratch, LaneSet lanes, std::uint32_t* js,
+                   std::size_t& kept, float& far2);
 
 // F_con's sum (eq. 5) over scratch.dx/dy/dz/d2[0, m): Σ d̂ exp(−M² inv2s2) over the entries with 0 < |d| and
 // Manhattan length M < threshold, d = p_j − q (the caller negates and scales it), and how many there were.

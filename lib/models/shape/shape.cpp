@@ -455,6 +455,7 @@ class ShapeModel final : public Model {
       }
       std::size_t counts[3];
       std::size_t mk = 0;
+      bool packed = true;  // the near class as gatherClassify packed it (not the whole coverage's)
       for (;;) {
         // their sorted positions and positions (the one random access of each), offsets, squared distances,
         // and who counts for F_con, F_int (within the first radius) and MDE
@@ -464,6 +465,7 @@ class ShapeModel final : public Model {
         mk = counts[1];
         if (mk < K && reach < std::min(cover, rAtt)) {  // fewer than K within the first radius: all of cover
           const float c2 = std::min(cover, rAtt) * std::min(cover, rAtt);
+          packed = false;
           mk = 0;
           for (std::size_t e = 0; e < m; ++e) {
             ns.nearIdx[mk] = static_cast<std::uint32_t>(e);
@@ -471,6 +473,7 @@ class ShapeModel final : public Model {
           }
         }
         if (mk >= K || cover >= rAtt) break;
+        packed = true;
         // fewer than K within the coverage, which is short of r_att: a wider list (rare)
         cover = std::min(rAtt, 1.5f * cover);
         cand = lists_.build(static_cast<std::uint32_t>(k), cover, grid_, ids_.data(), ns.ids, ns.sortKeys, m, lanes);
@@ -490,16 +493,26 @@ class ShapeModel final : public Model {
         constraintSumScratch(mc, kh, inv2s2, ns, avx, sum, count);
         fCon = count > 0 ? Vec3(sum * (-wCon / static_cast<float>(count))) : Vec3::Zero();
       }
+      // MDE's candidates (within its reach now), kept for the MDE pass when they fit its slot
+      const std::size_t mm = counts[2];
+      mdeCount_[k] = mm <= kMdeRoom ? static_cast<std::uint8_t>(mm) : kMdeNone;
+      for (std::size_t c = 0; c < std::min(mm, kMdeRoom); ++c) mdeNear_[k * kMdeRoom + c] = cand[ns.mdeIdx[c]];
+      // F_int over the K nearest within r_att, in id order: on AVX-512 (up to 16 within the radius) straight
+      // from the packed class, else by their keys
+      if (rowsZonal && packed) {
+        std::size_t kept = 0;
+        float far2 = 0.0f;
+        if (nearestPacked(mk, K, ns, lanes, js, kept, far2)) {
+          reach_[k] = kept == K ? std::sqrt(far2) : rAtt;
+          mkOut = kept;
+          return Vec3::Zero();
+        }
+      }
       std::uint64_t* keys = ns.keys.data();
       for (std::size_t c = 0; c < mk; ++c) {
         const std::uint32_t e = ns.nearIdx[c];
         keys[c] = neighbourKey(ns.cd2[e], e);  // ties: the lower id
       }
-      // MDE's candidates (within its reach now), kept for the MDE pass when they fit its slot
-      const std::size_t mm = counts[2];
-      mdeCount_[k] = mm <= kMdeRoom ? static_cast<std::uint8_t>(mm) : kMdeNone;
-      for (std::size_t c = 0; c < std::min(mm, kMdeRoom); ++c) mdeNear_[k * kMdeRoom + c] = cand[ns.mdeIdx[c]];
-      // F_int over the K nearest within r_att, in id order
       mk = keepSmallest(keys, mk, K);
       if (rowsZonal) {  // straight from their rows: their sorted positions, and the farthest (the largest key)
         std::uint64_t top = 0;
