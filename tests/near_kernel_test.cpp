@@ -146,9 +146,7 @@ TEST_CASE("near kernels: F_con and F_int sums equal the scalar ones, and AVX equ
     if (__builtin_cpu_supports("avx")) CHECK(sameBits(zonalForce(m, zl, copy, true), fz));
 #endif
     // the same sum straight from the points' rows (position, 0, velocity, 0; a far row at n), on AVX2
-    for (const LaneSet set : swarmsim_test::laneSetsOfThisCpu()) {
-      if (!zonalFromRows(set)) continue;
-      INFO("lane set " << static_cast<int>(set));
+    if (zonalFromRows(laneSet())) {
       AlignedFloats store;
       float* rows = store.resize(kRowFloats * (n + 1));
       for (std::size_t i = 0; i <= n; ++i) {
@@ -158,7 +156,7 @@ TEST_CASE("near kernels: F_con and F_int sums equal the scalar ones, and AVX equ
       }
       std::vector<std::uint32_t> js(n + 16);
       for (std::size_t i = 1; i < n; ++i) js[i - 1] = static_cast<std::uint32_t>(i);
-      CHECK(sameBits(zonalForceRows(m, js.data(), rows, static_cast<std::uint32_t>(n), q, vq, zl, set), fz));
+      CHECK(sameBits(zonalForceRows(m, js.data(), rows, static_cast<std::uint32_t>(n), q, vq, zl), fz));
     }
   }
 }
@@ -231,63 +229,4 @@ TEST_CASE("near kernels: classifyCandidates and gatherClassify sort each candida
       }
     }
   }
-}
-
-TEST_CASE("near kernels: nearestPacked keeps the K nearest of the packed near class, ties to the earlier entry",
-          "[shape][lanes]") {
-  std::mt19937 rng(11);
-  std::uniform_int_distribution<int> grid(-3, 3);  // coarse positions: many equal distances
-  const bool has512 = laneSet() == LaneSet::kAvx512;
-  if (!has512) {
-    NearScratch ns;
-    std::uint32_t js[16];
-    std::size_t kept = 0;
-    float far2 = 0.0f;
-    CHECK_FALSE(nearestPacked(3, 10, ns, laneSet(), js, kept, far2));
-    return;
-  }
-  int checked = 0;
-  for (int round = 0; round < 400; ++round) {
-    const std::size_t m = static_cast<std::size_t>(round % 40);
-    const std::size_t K = 1 + static_cast<std::size_t>(round % 13);
-    AlignedFloats store;
-    float* rows = store.resize(kRowFloats * (m + 1));
-    std::vector<std::uint32_t> cand(m + 16);
-    for (std::size_t e = 0; e <= m; ++e) {
-      const Vec3 p = e < m ? Vec3(0.1f * static_cast<float>(grid(rng)), 0.1f * static_cast<float>(grid(rng)),
-                                  0.1f * static_cast<float>(grid(rng)))
-                           : Vec3::Constant(3.0e38f);
-      const float row[kRowFloats] = {p.x(), p.y(), p.z(), 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
-      std::copy(row, row + kRowFloats, rows + kRowFloats * e);
-      if (e < m) cand[e] = static_cast<std::uint32_t>((e * 7) % m);  // a permutation of the rows
-    }
-    NearScratch ns;
-    std::size_t counts[3];
-    const float near2 = 0.1f;
-    gatherClassify(m, cand.data(), rows, static_cast<std::uint32_t>(m), Vec3::Zero(), 0.5f, near2, 0.01f, ns,
-                   LaneSet::kAvx512, counts);
-    const std::size_t n = counts[1];
-    std::vector<std::uint32_t> js(16);
-    std::size_t kept = 0;
-    float far2 = -1.0f;
-    const bool done = nearestPacked(n, K, ns, LaneSet::kAvx512, js.data(), kept, far2);
-    REQUIRE(done == (n <= 16));
-    if (!done) continue;
-    // by brute force: the near class's keys (squared distance, entry), the K smallest, back in entry order
-    std::vector<std::pair<float, std::size_t>> keys;
-    for (std::size_t e = 0; e < m; ++e) {
-      if (ns.cd2[e] <= near2) keys.emplace_back(ns.cd2[e], e);
-    }
-    REQUIRE(keys.size() == n);
-    std::sort(keys.begin(), keys.end());
-    keys.resize(std::min(K, n));
-    std::sort(keys.begin(), keys.end(), [](const auto& a, const auto& b) { return a.second < b.second; });
-    float want2 = 0.0f;
-    for (const auto& kv : keys) want2 = std::max(want2, kv.first);
-    REQUIRE(kept == keys.size());
-    for (std::size_t q = 0; q < kept; ++q) CHECK(js[q] == cand[keys[q].second]);
-    CHECK(far2 == want2);
-    ++checked;
-  }
-  CHECK(checked > 200);
 }

@@ -37,13 +37,12 @@ void parallelForDynamic(std::size_t n, std::size_t chunk, F&& body) {
 // as parallelFor: each thread takes the indices of its own contiguous range in order, `chunk` at a time (the
 // range libgomp's schedule(static) gives it, so it mostly reads what it wrote in the static loops before),
 // and a thread that has finished its range goes on with what is left of the others', a chunk at a time:
-// uneven work per index no longer leaves a thread waiting for the slowest range. body(a, b) takes the
-// indices [a, b), at most `chunk` of them, or (serially, for small n or one thread) all of [0, n) at once.
+// uneven work per index no longer leaves a thread waiting for the slowest range
 template <typename F>
-void parallelRangesBalanced(std::size_t n, std::size_t chunk, F&& body) {
+void parallelForBalanced(std::size_t n, std::size_t chunk, F&& body) {
   const int threads = omp_get_max_threads();
   if (n < kSerialBelow || threads < 2) {
-    if (n > 0) body(std::size_t{0}, n);
+    for (std::size_t i = 0; i < n; ++i) body(i);
     return;
   }
   struct alignas(64) Share {
@@ -67,18 +66,11 @@ void parallelRangesBalanced(std::size_t n, std::size_t chunk, F&& body) {
       for (;;) {
         const std::size_t a = r.next.fetch_add(chunk, std::memory_order_relaxed);
         if (a >= r.end) break;
-        body(a, std::min(r.end, a + chunk));
+        const std::size_t b = std::min(r.end, a + chunk);
+        for (std::size_t i = a; i < b; ++i) body(i);
       }
     }
   }
-}
-
-// parallelRangesBalanced, one index at a time
-template <typename F>
-void parallelForBalanced(std::size_t n, std::size_t chunk, F&& body) {
-  parallelRangesBalanced(n, chunk, [&](std::size_t a, std::size_t b) {
-    for (std::size_t i = a; i < b; ++i) body(i);
-  });
 }
 
 // Split [0, n) into one contiguous chunk per thread, in index order, and call

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <stdexcept>
 
 #include "core/lanes.hpp"
@@ -237,168 +236,6 @@ SWARMSIM_AVX2 __attribute__((flatten)) void zonalRowsAvx2(std::size_t m, const s
   zonalSums<AvxLanes>(acc, out);
 }
 
-// The same two kernels on sixteen AVX-512 lanes. Each candidate's classes, offsets and squared distance come
-// from the same operations on its own lane, so gatherClassifyAvx512 gives gatherClassifyAvx2's result. Up to
-// sixteen neighbours, zonalRowsAvx512 computes each entry as zonalRowsAvx2 does, entries 0-7 in the low half
-// and 8-15 in the high half, then adds the halves to eight lanes in zonalRowsAvx2's order: (0 + low) + high.
-// With eight or fewer the high half is the far row's, whose terms are ±0, and x + ±0 is x for every x that
-// 0 + low can be (never −0): the same bits again.
-SWARMSIM_AVX512 inline __m512 absLanes(__m512 x) {  // |x| by the sign bit (AVX-512F has no andnot_ps)
-  return _mm512_castsi512_ps(_mm512_and_si512(_mm512_castps_si512(x), _mm512_set1_epi32(0x7fffffff)));
-}
-SWARMSIM_AVX512 inline std::size_t packMask16(std::uint32_t base, __mmask16 mask, std::uint32_t* out) {
-  const __m512i idx = _mm512_add_epi32(_mm512_set1_epi32(static_cast<int>(base)),
-                                       _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15));
-  _mm512_storeu_si512(out, _mm512_maskz_compress_epi32(mask, idx));  // writes 16 entries
-  return static_cast<std::size_t>(__builtin_popcount(mask));
-}
-SWARMSIM_AVX512 __attribute__((flatten)) void gatherClassifyAvx512(std::size_t m, const std::uint32_t* cand,
-                                                                   const float* rows, std::uint32_t far, float qx,
-                                                                   float qy, float qz, float threshold, float near2,
-                                                                   float reach2, NearScratch& s,
-                                                                   std::size_t counts[3]) {
-  const __m512 vx = _mm512_set1_ps(qx), vy = _mm512_set1_ps(qy), vz = _mm512_set1_ps(qz);
-  const __m512 thr = _mm512_set1_ps(threshold), vnear = _mm512_set1_ps(near2), vreach = _mm512_set1_ps(reach2);
-  const __m512 zero = _mm512_setzero_ps();
-  std::uint32_t* con = s.conIdx.data();
-  std::uint32_t* nr = s.nearIdx.data();
-  std::uint32_t* md = s.mdeIdx.data();
-  std::uint32_t* cj = s.cj.data();
-  std::size_t nc = 0, nn = 0, nm = 0;
-  const auto row = [&](std::uint32_t i) { return _mm_loadu_ps(rows + kRowFloats * std::size_t{i}); };
-  for (std::size_t e = 0; e < m; e += 16) {
-    const __mmask16 live = m - e >= 16 ? __mmask16{0xffff} : static_cast<__mmask16>((1u << (m - e)) - 1u);
-    const __m512i pos = _mm512_mask_loadu_epi32(_mm512_set1_epi32(static_cast<int>(far)), live, cand + e);
-    _mm512_storeu_si512(cj + e, pos);
-    alignas(64) std::uint32_t j[16];
-    _mm512_store_si512(j, pos);
-    // a[l] = rows j[l], j[l + 4], j[l + 8], j[l + 12] (x, y, z, 0 each): transposed as RowPositions does per half
-    __m512 a[4];
-    for (int l = 0; l < 4; ++l) {
-      a[l] = _mm512_insertf32x4(
-          _mm512_insertf32x4(_mm512_insertf32x4(_mm512_castps128_ps512(row(j[l])), row(j[l + 4]), 1), row(j[l + 8]), 2),
-          row(j[l + 12]), 3);
-    }
-    const __m512 t0 = _mm512_maskz_unpacklo_ps(0xffff, a[0], a[1]), t1 = _mm512_maskz_unpackhi_ps(0xffff, a[0], a[1]);
-    const __m512 t2 = _mm512_maskz_unpacklo_ps(0xffff, a[2], a[3]), t3 = _mm512_maskz_unpackhi_ps(0xffff, a[2], a[3]);
-    const __m512 px = _mm512_shuffle_ps(t0, t2, _MM_SHUFFLE(1, 0, 1, 0));
-    const __m512 py = _mm512_shuffle_ps(t0, t2, _MM_SHUFFLE(3, 2, 3, 2));
-    const __m512 pz = _mm512_shuffle_ps(t1, t3, _MM_SHUFFLE(1, 0, 1, 0));
-    const __m512 dx = _mm512_sub_ps(px, vx), dy = _mm512_sub_ps(py, vy), dz = _mm512_sub_ps(pz, vz);
-    const __m512 d2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)), _mm512_mul_ps(dz, dz));
-    _mm512_storeu_ps(s.cx.data() + e, dx);
-    _mm512_storeu_ps(s.cy.data() + e, dy);
-    _mm512_storeu_ps(s.cz.data() + e, dz);
-    _mm512_storeu_ps(s.cd2.data() + e, d2);
-    const __m512 man = _mm512_add_ps(_mm512_add_ps(absLanes(dx), absLanes(dy)), absLanes(dz));
-    const __mmask16 inCon = _mm512_mask_cmp_ps_mask(_mm512_cmp_ps_mask(man, thr, _CMP_LT_OQ), d2, zero, _CMP_GT_OQ);
-    const auto base = static_cast<std::uint32_t>(e);
-    nc += packMask16(base, inCon, con + nc);
-    const __mmask16 inNear = _mm512_cmp_ps_mask(d2, vnear, _CMP_LE_OQ);
-    _mm512_storeu_ps(s.nearD2.data() + nn, _mm512_maskz_compress_ps(inNear, d2));  // 16 entries each
-    _mm512_storeu_si512(s.nearPos.data() + nn, _mm512_maskz_compress_epi32(inNear, pos));
-    nn += packMask16(base, inNear, nr + nn);
-    nm += packMask16(base, _mm512_cmp_ps_mask(d2, vreach, _CMP_LE_OQ), md + nm);
-  }
-  counts[0] = nc;
-  counts[1] = nn;
-  counts[2] = nm;
-}
-// nearestPacked on AVX-512: each entry's rank among the live ones is how many come before it in the keys'
-// order (a smaller squared distance, or the same and an earlier entry); those ranked below K are kept. The
-// squared distances are non-negative, so their bits order as they do.
-SWARMSIM_AVX512 __attribute__((flatten)) std::size_t nearestPackedAvx512(std::size_t n, std::size_t K,
-                                                                         const float* nd2,
-                                                                         const std::uint32_t* npos,
-                                                                         std::uint32_t* js, float& far2) {
-  const __mmask16 live = n >= 16 ? __mmask16{0xffff} : static_cast<__mmask16>((1u << n) - 1u);
-  const __m512i d = _mm512_maskz_loadu_epi32(live, nd2);
-  const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-  const __m512i one = _mm512_set1_epi32(1);
-  alignas(64) std::uint32_t bits[16];
-  _mm512_store_si512(bits, d);
-  __m512i rank = _mm512_setzero_si512();
-  for (unsigned j = 0; j < 16; ++j) {  // a fixed count: entry j (when live) before each entry it precedes
-    const __m512i b = _mm512_set1_epi32(static_cast<int>(bits[j]));
-    const __mmask16 before =
-        static_cast<__mmask16>(_mm512_cmplt_epu32_mask(b, d) |
-                               (_mm512_cmpeq_epi32_mask(b, d) & _mm512_cmpgt_epi32_mask(lane, _mm512_set1_epi32(static_cast<int>(j)))));
-    const __mmask16 counted = static_cast<__mmask16>(before & (0u - ((live >> j) & 1u)));
-    rank = _mm512_mask_add_epi32(rank, counted, rank, one);
-  }
-  const __mmask16 keep = static_cast<__mmask16>(live & _mm512_cmplt_epu32_mask(rank, _mm512_set1_epi32(static_cast<int>(K))));
-  const __m512i pos = _mm512_maskz_loadu_epi32(live, npos);
-  _mm512_storeu_si512(js, _mm512_maskz_compress_epi32(keep, pos));
-  __m512i x = _mm512_maskz_mov_epi32(keep, d);  // the largest kept (0 elsewhere: no larger)
-  x = _mm512_maskz_max_epu32(0xffff, x, _mm512_maskz_shuffle_i32x4(0xffff, x, x, _MM_SHUFFLE(1, 0, 3, 2)));
-  x = _mm512_maskz_max_epu32(0xffff, x, _mm512_maskz_shuffle_i32x4(0xffff, x, x, _MM_SHUFFLE(2, 3, 0, 1)));
-  x = _mm512_maskz_max_epu32(0xffff, x, _mm512_maskz_shuffle_epi32(0xffff, x, _MM_PERM_BADC));
-  x = _mm512_maskz_max_epu32(0xffff, x, _mm512_maskz_shuffle_epi32(0xffff, x, _MM_PERM_CDAB));
-  const auto top = static_cast<std::uint32_t>(_mm512_cvtsi512_si32(x));
-  std::memcpy(&far2, &top, sizeof far2);
-  return static_cast<std::size_t>(__builtin_popcount(keep));
-}
-SWARMSIM_AVX512 inline __m512 rowPair(const float* rows, std::uint32_t lo, std::uint32_t hi) {
-  const __m256 a = _mm256_load_ps(rows + kRowFloats * std::size_t{lo});
-  const __m256 b = _mm256_load_ps(rows + kRowFloats * std::size_t{hi});
-  return _mm512_castpd_ps(_mm512_maskz_insertf64x4(0xff, _mm512_castpd256_pd512(_mm256_castps_pd(a)), _mm256_castps_pd(b), 1));
-}
-SWARMSIM_AVX512 inline AvxLanes::V lowHalf(__m512 x) {
-  return {_mm256_castpd_ps(_mm512_maskz_extractf64x4_pd(0xf, _mm512_castps_pd(x), 0))};
-}
-SWARMSIM_AVX512 inline AvxLanes::V highHalf(__m512 x) {
-  return {_mm256_castpd_ps(_mm512_maskz_extractf64x4_pd(0xf, _mm512_castps_pd(x), 1))};
-}
-// zonalRowsAvx2 of m <= 16 neighbours at js[0, m) (the far row in the lanes from m)
-SWARMSIM_AVX512 __attribute__((flatten)) void zonalRowsAvx512(std::size_t m, const std::uint32_t* given,
-                                                              const float* rows, std::uint32_t far, float qx,
-                                                              float qy, float qz, float vx, float vy, float vz,
-                                                              const ZoneLanes& z, float out[12]) {
-  const __mmask16 live = static_cast<__mmask16>((1u << m) - 1u);
-  alignas(64) std::uint32_t js[16];
-  _mm512_store_si512(js, _mm512_mask_loadu_epi32(_mm512_set1_epi32(static_cast<int>(far)), live, given));
-  const __m256 self8 = _mm256_setr_ps(qx, qy, qz, 0.0f, vx, vy, vz, 0.0f);
-  const __m512 self = _mm512_castpd_ps(_mm512_maskz_broadcast_f64x4(0xff, _mm256_castps_pd(self8)));
-  __m512 r[8];
-  for (int l = 0; l < 8; ++l) r[l] = _mm512_sub_ps(rowPair(rows, js[l], js[l + 8]), self);
-  const __m512 t0 = _mm512_maskz_unpacklo_ps(0xffff, r[0], r[1]), t1 = _mm512_maskz_unpackhi_ps(0xffff, r[0], r[1]);
-  const __m512 t2 = _mm512_maskz_unpacklo_ps(0xffff, r[2], r[3]), t3 = _mm512_maskz_unpackhi_ps(0xffff, r[2], r[3]);
-  const __m512 t4 = _mm512_maskz_unpacklo_ps(0xffff, r[4], r[5]), t5 = _mm512_maskz_unpackhi_ps(0xffff, r[4], r[5]);
-  const __m512 t6 = _mm512_maskz_unpacklo_ps(0xffff, r[6], r[7]), t7 = _mm512_maskz_unpackhi_ps(0xffff, r[6], r[7]);
-  // per 128 bits, rows 0-3 | 4-7 of each: (x, vx, x of 8-11, vx of 8-11) and so on
-  const __m512 a0 = _mm512_shuffle_ps(t0, t2, _MM_SHUFFLE(1, 0, 1, 0)), b0 = _mm512_shuffle_ps(t4, t6, _MM_SHUFFLE(1, 0, 1, 0));
-  const __m512 a1 = _mm512_shuffle_ps(t0, t2, _MM_SHUFFLE(3, 2, 3, 2)), b1 = _mm512_shuffle_ps(t4, t6, _MM_SHUFFLE(3, 2, 3, 2));
-  const __m512 a2 = _mm512_shuffle_ps(t1, t3, _MM_SHUFFLE(1, 0, 1, 0)), b2 = _mm512_shuffle_ps(t5, t7, _MM_SHUFFLE(1, 0, 1, 0));
-  const __m512i pickD = _mm512_setr_epi32(0, 1, 2, 3, 16, 17, 18, 19, 8, 9, 10, 11, 24, 25, 26, 27);
-  const __m512i pickU = _mm512_setr_epi32(4, 5, 6, 7, 20, 21, 22, 23, 12, 13, 14, 15, 28, 29, 30, 31);
-  const __m512 dx = _mm512_permutex2var_ps(a0, pickD, b0), ux = _mm512_permutex2var_ps(a0, pickU, b0);
-  const __m512 dy = _mm512_permutex2var_ps(a1, pickD, b1), uy = _mm512_permutex2var_ps(a1, pickU, b1);
-  const __m512 dz = _mm512_permutex2var_ps(a2, pickD, b2), uz = _mm512_permutex2var_ps(a2, pickU, b2);
-  // zonalBlock's operations, masks as bits
-  const __m512 one = _mm512_set1_ps(1.0f), tiny = _mm512_set1_ps(kTiny);
-  const __m512 d2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)), _mm512_mul_ps(dz, dz));
-  const __m512 u2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(ux, ux), _mm512_mul_ps(uy, uy)), _mm512_mul_ps(uz, uz));
-  const __mmask16 inRep = _mm512_cmp_ps_mask(d2, _mm512_set1_ps(z.rep2), _CMP_LT_OQ);
-  const __mmask16 inNear = _mm512_cmp_ps_mask(d2, _mm512_set1_ps(z.ali2), _CMP_LT_OQ);
-  const __mmask16 inAli = static_cast<__mmask16>(~inRep & inNear);
-  const __mmask16 inAtt = static_cast<__mmask16>(~inNear & _mm512_cmp_ps_mask(d2, _mm512_set1_ps(z.att2), _CMP_LE_OQ));
-  const __m512 invd = _mm512_div_ps(one, _mm512_maskz_sqrt_ps(0xffff, _mm512_maskz_max_ps(0xffff, d2, tiny)));
-  const __m512 invu = _mm512_div_ps(one, _mm512_maskz_sqrt_ps(0xffff, _mm512_maskz_max_ps(0xffff, u2, tiny)));
-  const __m512 wr = _mm512_maskz_mov_ps(inRep, invd), wl = _mm512_maskz_mov_ps(inAli, invu);
-  const __m512 wa = _mm512_maskz_mov_ps(inAtt, invd);
-  const __m512 terms[12] = {_mm512_mul_ps(dx, wr), _mm512_mul_ps(dy, wr), _mm512_mul_ps(dz, wr),
-                            _mm512_mul_ps(ux, wl), _mm512_mul_ps(uy, wl), _mm512_mul_ps(uz, wl),
-                            _mm512_mul_ps(dx, wa), _mm512_mul_ps(dy, wa), _mm512_mul_ps(dz, wa),
-                            _mm512_maskz_mov_ps(inRep, one), _mm512_maskz_mov_ps(inAli, one),
-                            _mm512_maskz_mov_ps(inAtt, one)};
-  AvxLanes::V acc[12];
-  const AvxLanes::V zero8 = AvxLanes::set1(0.0f);
-  for (int c = 0; c < 12; ++c) {
-    acc[c] = AvxLanes::add(AvxLanes::add(zero8, lowHalf(terms[c])), highHalf(terms[c]));
-  }
-  zonalSums<AvxLanes>(acc, out);
-}
-
 __attribute__((flatten)) void constraintSse(const NearScratch& s, std::size_t m, float t, float c, float o[3][kLanes],
                                             int& n) {
   constraintLanes<SseLanes>(s, m, t, c, o, n);
@@ -427,9 +264,8 @@ void NearScratch::reserve(std::size_t n) {
 void NearScratch::growCandidates(std::size_t n) {
   const std::size_t cap = padded(n + n / 2 + 32);
   reserve(cap);
-  for (auto* v : {&cx, &cy, &cz, &cd2, &nearD2}) v->resize(cap);
-  nearPos.resize(cap);
-  for (auto* v : {&cj, &conIdx, &nearIdx, &mdeIdx}) v->resize(cap);
+  for (auto* v : {&cx, &cy, &cz, &cd2}) v->resize(cap);
+  for (auto* v : {&cj, &conIdx, &nearIdx, &mdeIdx, &chosen}) v->resize(cap);
   if (keys.size() < cap) keys.resize(cap);
   room_ = cap;
 }
@@ -483,11 +319,7 @@ void gatherClassify(std::size_t m, const std::uint32_t* cand, const float* rows,
                     float threshold, float near2, float reach2, NearScratch& s, LaneSet lanes, std::size_t counts[3]) {
   s.reserveCandidates(padded(m));
 #if SWARMSIM_X86_LANES
-  if (lanes == LaneSet::kAvx512) {
-    gatherClassifyAvx512(m, cand, rows, far, q.x(), q.y(), q.z(), threshold, near2, reach2, s, counts);
-    return;
-  }
-  if (lanes == LaneSet::kAvx2) {
+  if (lanes == LaneSet::kAvx2 || lanes == LaneSet::kAvx512) {
     gatherClassifyAvx2(m, cand, rows, far, q.x(), q.y(), q.z(), threshold, near2, reach2, s, counts);
     return;
   }
@@ -509,35 +341,14 @@ namespace {
 Vec3 zonalResult(const ZoneLanes& z, const float out[12]) {
   Vec3 f = Vec3::Zero();
   const float sign[3] = {-1.0f, 1.0f, 1.0f};
-  // an empty zone adds sum * 0 (its sum is ±0, so ±0), which leaves f as it is: f starts at +0 and, as a
-  // sum with +0 first, is never −0. So no branch on which zones are empty.
   for (int zone = 0; zone < 3; ++zone) {
-    const float count = out[9 + zone];
-    const float scale = sign[zone] * z.w[zone] / std::max(count, 1.0f);
+    if (out[9 + zone] == 0.0f) continue;
     const Vec3 sum(out[3 * zone], out[3 * zone + 1], out[3 * zone + 2]);
-    f += sum * (count > 0.0f ? scale : 0.0f);
+    f += sum * (sign[zone] * z.w[zone] / out[9 + zone]);
   }
   return f;
 }
 }  // namespace
-
-bool nearestPacked(std::size_t n, std::size_t K, const NearScratch& s, LaneSet lanes, std::uint32_t* js,
-                   std::size_t& kept, float& far2) {
-#if SWARMSIM_X86_LANES
-  if (lanes != LaneSet::kAvx512 || n > 16) return false;
-  kept = nearestPackedAvx512(n, K, s.nearD2.data(), s.nearPos.data(), js, far2);
-  return true;
-#else
-  (void)n;
-  (void)K;
-  (void)s;
-  (void)lanes;
-  (void)js;
-  (void)kept;
-  (void)far2;
-  return false;
-#endif
-}
 
 bool zonalFromRows(LaneSet lanes) {
 #if SWARMSIM_X86_LANES
@@ -549,20 +360,12 @@ bool zonalFromRows(LaneSet lanes) {
 }
 
 Vec3 zonalForceRows(std::size_t m, std::uint32_t* js, const float* rows, std::uint32_t far, const Vec3& q,
-                    const Vec3& v, const ZoneLanes& z, LaneSet lanes) {
+                    const Vec3& v, const ZoneLanes& z) {
   float out[12];
-#if SWARMSIM_X86_LANES
-  if (lanes == LaneSet::kAvx512 && m <= 16) {
-    zonalRowsAvx512(m, js, rows, far, q.x(), q.y(), q.z(), v.x(), v.y(), v.z(), z, out);
-    return zonalResult(z, out);
-  }
   for (std::size_t e = m; e % kLanes != 0; ++e) js[e] = far;
+#if SWARMSIM_X86_LANES
   zonalRowsAvx2(m, js, rows, q.x(), q.y(), q.z(), v.x(), v.y(), v.z(), z, out);
 #else
-  (void)lanes;
-  (void)far;
-  (void)m;
-  (void)js;
   (void)rows;
   (void)q;
   (void)v;

@@ -26,14 +26,7 @@ struct alignas(64) NearScratch {
   std::vector<float> cx, cy, cz, cd2;
   std::vector<std::uint32_t> cj, ids;
   std::vector<std::uint32_t> conIdx, nearIdx, mdeIdx;  // classifyCandidates' output
-  // on AVX-512, gatherClassify also packs the near class's squared distances and sorted positions (for
-  // nearestPacked)
-  std::vector<float> nearD2;
-  std::vector<std::uint32_t> nearPos;
-  // a block of insects' F_int neighbours (sorted positions, a fixed room each), how many, and F_con
-  std::vector<std::uint32_t> blockJs;
-  std::vector<std::size_t> blockMk;
-  std::vector<Vec3> blockCon;
+  std::vector<std::uint32_t> chosen;                   // F_int's neighbours (sorted positions), for zonalForceRows
   std::vector<std::uint64_t> sortKeys;                 // sortById's (near_list.hpp)
   std::size_t rebuilds = 0;  // near lists this thread built from the grid (a statistic: one count per thread,
                              // so that no cache line is shared between the cores)
@@ -85,14 +78,6 @@ class AlignedFloats {
 void gatherClassify(std::size_t m, const std::uint32_t* cand, const float* rows, std::uint32_t far, const Vec3& q,
                     float threshold, float near2, float reach2, NearScratch& s, LaneSet lanes, std::size_t counts[3]);
 
-// Of the near class that gatherClassify packed on AVX-512 (lanes == kAvx512, at most 16 entries, in
-// scratch.nearD2/nearPos), the K nearest, ties to the earlier entry (keepSmallest's order of the keys
-// neighbourKey(d2, e)), in their given order: their sorted positions to js[0, kept) (16 entries written), the
-// largest of their squared distances to far2 (0 when none is kept); returns kept = min(n, K). Without a
-// branch on the data. False (nothing done) where it does not apply: other lanes, or more than 16 entries.
-bool nearestPacked(std::size_t n, std::size_t K, const NearScratch& scratch, LaneSet lanes, std::uint32_t* js,
-                   std::size_t& kept, float& far2);
-
 // F_con's sum (eq. 5) over scratch.dx/dy/dz/d2[0, m): Σ d̂ exp(−M² inv2s2) over the entries with 0 < |d| and
 // Manhattan length M < threshold, d = p_j − q (the caller negates and scales it), and how many there were.
 // The other entries count for nothing, but the lane of entry e is e % 8, so a caller that wants a sum
@@ -114,11 +99,10 @@ Vec3 zonalForce(std::size_t m, const ZoneLanes& zones, NearScratch& scratch, boo
 
 // zonalForce of the m neighbours at sorted positions js[0, m), taken from their rows (gatherClassify's, with
 // the velocity in floats 4-6) less the insect's position q and velocity v: the same result as zonalForce of
-// the same entries, without gathering them first. js is padded here with the far row to whole lanes, or to
-// 16 entries on AVX-512 (room for max(16, m rounded up to 8) needed). Only where zonalFromRows(lanes) (AVX2,
-// AVX-512: the same bits).
+// the same entries, without gathering them first. js is padded here with the far row to whole lanes (room
+// for it needed). Only where zonalFromRows(lanes) (AVX2).
 bool zonalFromRows(LaneSet lanes);
 Vec3 zonalForceRows(std::size_t m, std::uint32_t* js, const float* rows, std::uint32_t far, const Vec3& q,
-                    const Vec3& v, const ZoneLanes& zones, LaneSet lanes);
+                    const Vec3& v, const ZoneLanes& zones);
 
 }  // namespace swarmsim

@@ -411,10 +411,7 @@ class ShapeModel final : public Model {
       mdeNear_.resize(n * kMdeRoom);
       mdeCount_.resize(n);
     }
-    // (zonalFromRows) F_int is not summed here: its neighbours' sorted positions go to js[0, mkOut), for
-    // zonalForceRows after the block's other insects (the sums of a block's insects then overlap)
-    const auto nearForces = [&](std::size_t k, NearScratch& ns, Vec3& fCon, std::uint32_t* js,
-                                std::size_t& mkOut) -> Vec3 {
+    const auto nearForces = [&](std::size_t k, NearScratch& ns, Vec3& fCon) -> Vec3 {
       const float qx = sx[k], qy = sy[k], qz = sz[k];
       // last step's data of this insect sit in its state index (last step's sorted position), unless the
       // state is not as last step left it (the step after a resume or a new target)
@@ -455,7 +452,6 @@ class ShapeModel final : public Model {
       }
       std::size_t counts[3];
       std::size_t mk = 0;
-      bool packed = true;  // the near class as gatherClassify packed it (not the whole coverage's)
       for (;;) {
         // their sorted positions and positions (the one random access of each), offsets, squared distances,
         // and who counts for F_con, F_int (within the first radius) and MDE
@@ -465,7 +461,6 @@ class ShapeModel final : public Model {
         mk = counts[1];
         if (mk < K && reach < std::min(cover, rAtt)) {  // fewer than K within the first radius: all of cover
           const float c2 = std::min(cover, rAtt) * std::min(cover, rAtt);
-          packed = false;
           mk = 0;
           for (std::size_t e = 0; e < m; ++e) {
             ns.nearIdx[mk] = static_cast<std::uint32_t>(e);
@@ -473,7 +468,6 @@ class ShapeModel final : public Model {
           }
         }
         if (mk >= K || cover >= rAtt) break;
-        packed = true;
         // fewer than K within the coverage, which is short of r_att: a wider list (rare)
         cover = std::min(rAtt, 1.5f * cover);
         cand = lists_.build(static_cast<std::uint32_t>(k), cover, grid_, ids_.data(), ns.ids, ns.sortKeys, m, lanes);
@@ -493,36 +487,27 @@ class ShapeModel final : public Model {
         constraintSumScratch(mc, kh, inv2s2, ns, avx, sum, count);
         fCon = count > 0 ? Vec3(sum * (-wCon / static_cast<float>(count))) : Vec3::Zero();
       }
-      // MDE's candidates (within its reach now), kept for the MDE pass when they fit its slot
-      const std::size_t mm = counts[2];
-      mdeCount_[k] = mm <= kMdeRoom ? static_cast<std::uint8_t>(mm) : kMdeNone;
-      for (std::size_t c = 0; c < std::min(mm, kMdeRoom); ++c) mdeNear_[k * kMdeRoom + c] = cand[ns.mdeIdx[c]];
-      // F_int over the K nearest within r_att, in id order: on AVX-512 (up to 16 within the radius) straight
-      // from the packed class, else by their keys
-      if (rowsZonal && packed) {
-        std::size_t kept = 0;
-        float far2 = 0.0f;
-        if (nearestPacked(mk, K, ns, lanes, js, kept, far2)) {
-          reach_[k] = kept == K ? std::sqrt(far2) : rAtt;
-          mkOut = kept;
-          return Vec3::Zero();
-        }
-      }
       std::uint64_t* keys = ns.keys.data();
       for (std::size_t c = 0; c < mk; ++c) {
         const std::uint32_t e = ns.nearIdx[c];
         keys[c] = neighbourKey(ns.cd2[e], e);  // ties: the lower id
       }
+      // MDE's candidates (within its reach now), kept for the MDE pass when they fit its slot
+      const std::size_t mm = counts[2];
+      mdeCount_[k] = mm <= kMdeRoom ? static_cast<std::uint8_t>(mm) : kMdeNone;
+      for (std::size_t c = 0; c < std::min(mm, kMdeRoom); ++c) mdeNear_[k * kMdeRoom + c] = cand[ns.mdeIdx[c]];
+      // F_int over the K nearest within r_att, in id order
       mk = keepSmallest(keys, mk, K);
       if (rowsZonal) {  // straight from their rows: their sorted positions, and the farthest (the largest key)
         std::uint64_t top = 0;
+        std::uint32_t* js = ns.chosen.data();  // (room for the candidates: gatherClassify)
         for (std::size_t q = 0; q < mk; ++q) {
           js[q] = ns.cj[keyIndex(keys[q])];
           top = std::max(top, keys[q]);
         }
         reach_[k] = mk == K ? std::sqrt(keyDistance2(top)) : rAtt;
-        mkOut = mk;
-        return Vec3::Zero();
+        return zonalForceRows(mk, js, rows, static_cast<std::uint32_t>(n), Vec3(qx, qy, qz),
+                              Vec3(vx_[k], vy_[k], vz_[k]), zoneLanes);
       }
       float far2 = 0.0f;
       const float vkx = vx_[k], vky = vy_[k], vkz = vz_[k];
@@ -558,7 +543,7 @@ class ShapeModel final : public Model {
       // Newton's second law, unit mass; the fly's top speed
       v += force * dt;
       const float sp = v.norm();
-      v *= vmax / std::max(sp, vmax);  // without a branch (about half the insects fly at top speed): x / x is 1
+      if (sp > vmax) v *= vmax / sp;
       // eq. 8-9: near an obstacle the velocity ramps toward the tangent (only an approach is bent)
       if (obstacles) {
         const float dist = clearance_.distance(x);
@@ -580,33 +565,11 @@ class ShapeModel final : public Model {
       // each thread takes one contiguous range of insects, the same as in the loops before and after this one:
       // most of what it reads it wrote itself (another core's cache lines cost more than the uneven work), and
       // a thread done with its own goes on with what is left of the other's
-      // in blocks of kBlock insects: first each one's neighbours (and, without the rows' sums, its whole step),
-      // then F_int from the rows and the rest of the step of each (short and independent: the processor
-      // overlaps one insect's square roots and divisions with the next one's)
-      constexpr std::size_t kBlock = 64;
-      // zonalForceRows pads to whole lanes, or to 16 on AVX-512
-      const std::size_t jsRoom = std::max<std::size_t>(16, (K + kLanes - 1) / kLanes * kLanes);
-      parallelRangesBalanced(n, kBlock, [&](std::size_t a, std::size_t b) {
+      parallelForBalanced(n, 64, [&](std::size_t k) {
         NearScratch& ns = scratch_[static_cast<std::size_t>(threadIndex())];
-        if (ns.blockJs.size() < kBlock * jsRoom) ns.blockJs.resize(kBlock * jsRoom);
-        ns.blockMk.resize(kBlock);
-        ns.blockCon.resize(kBlock);
-        for (std::size_t c0 = a; c0 < b; c0 += kBlock) {
-          const std::size_t c1 = std::min(b, c0 + kBlock);
-          for (std::size_t k = c0; k < c1; ++k) {
-            Vec3& fCon = ns.blockCon[k - c0];
-            fCon = Vec3::Zero();
-            const Vec3 fInt = nearForces(k, ns, fCon, ns.blockJs.data() + (k - c0) * jsRoom, ns.blockMk[k - c0]);
-            if (!rowsZonal) insect(k, fInt, fCon);
-          }
-          if (!rowsZonal) continue;
-          for (std::size_t k = c0; k < c1; ++k) {
-            const Vec3 fInt = zonalForceRows(ns.blockMk[k - c0], ns.blockJs.data() + (k - c0) * jsRoom, rows,
-                                             static_cast<std::uint32_t>(n), Vec3(sx[k], sy[k], sz[k]),
-                                             Vec3(vx_[k], vy_[k], vz_[k]), zoneLanes, lanes);
-            insect(k, fInt, ns.blockCon[k - c0]);
-          }
-        }
+        Vec3 fCon = Vec3::Zero();
+        const Vec3 fInt = nearForces(k, ns, fCon);
+        insect(k, fInt, fCon);
       });
     } else {
       parallelFor(n, [&](std::size_t k) {
