@@ -51,6 +51,21 @@ CellBlock blockOf(const std::vector<Vec3>& pts, const Vec3& q) {
   return b;
 }
 
+// the rows the near kernels read (near_kernel.hpp: position, 0, velocity, 0): point i of pts (velocity vel[i],
+// or zero without vel) at sorted position at[i] (i without at), and the far row at pts.size()
+float* rowsOf(AlignedFloats& store, const std::vector<Vec3>& pts, const std::vector<Vec3>* vel = nullptr,
+              const std::vector<std::size_t>* at = nullptr) {
+  const std::size_t n = pts.size();
+  float* rows = store.resize(kRowFloats * (n + 1));
+  for (std::size_t i = 0; i <= n; ++i) {
+    const Vec3 p = i < n ? pts[i] : Vec3::Constant(3.0e38f);
+    const Vec3 v = i < n && vel ? (*vel)[i] : Vec3::Zero();
+    const float row[kRowFloats] = {p.x(), p.y(), p.z(), 0.0f, v.x(), v.y(), v.z(), 0.0f};
+    std::copy(row, row + kRowFloats, rows + kRowFloats * (i < n && at ? (*at)[i] : i));
+  }
+  return rows;
+}
+
 [[maybe_unused]] bool sameBits(const Vec3& a, const Vec3& b) { return std::memcmp(a.data(), b.data(), sizeof(float) * 3) == 0; }
 
 }  // namespace
@@ -148,13 +163,8 @@ TEST_CASE("near kernels: F_con and F_int sums equal the scalar ones, and AVX equ
     // the same sum straight from the points' rows (position, 0, velocity, 0; a far row at n), on AVX2
     if (zonalFromRows(laneSet())) {
       AlignedFloats store;
-      float* rows = store.resize(kRowFloats * (n + 1));
-      for (std::size_t i = 0; i <= n; ++i) {
-        const Vec3 p = i < n ? pts[i] : Vec3::Constant(3.0e38f), v = i < n ? vel[i] : Vec3::Zero();
-        const float row[kRowFloats] = {p.x(), p.y(), p.z(), 0.0f, v.x(), v.y(), v.z(), 0.0f};
-        std::copy(row, row + kRowFloats, rows + kRowFloats * i);
-      }
-      std::vector<std::uint32_t> js(n + 16);
+      const float* rows = rowsOf(store, pts, &vel);
+      std::vector<std::uint32_t> js(n + kLanes);
       for (std::size_t i = 1; i < n; ++i) js[i - 1] = static_cast<std::uint32_t>(i);
       CHECK(sameBits(zonalForceRows(m, js.data(), rows, static_cast<std::uint32_t>(n), q, vq, zl), fz));
     }
@@ -204,16 +214,11 @@ TEST_CASE("near kernels: classifyCandidates and gatherClassify sort each candida
         CHECK(ns.cd2[e] == dx * dx + dy * dy + dz * dz);
       }
       // the same from rows: candidate e is point e at sorted position m - 1 - e, the far row at m
+      std::vector<std::size_t> at(m);
+      std::vector<std::uint32_t> cand(m);
+      for (std::size_t e = 0; e < m; ++e) cand[e] = static_cast<std::uint32_t>(at[e] = m - 1 - e);
       AlignedFloats store;
-      float* rows = store.resize(kRowFloats * (m + 1));
-      std::vector<std::uint32_t> cand(m + 16);
-      for (std::size_t e = 0; e <= m; ++e) {
-        const Vec3 p = e < m ? pts[e] : Vec3::Constant(3.0e38f);
-        const std::size_t at = e < m ? m - 1 - e : m;
-        const float row[kRowFloats] = {p.x(), p.y(), p.z(), 0.0f, 1.0f, 2.0f, 3.0f, 0.0f};
-        std::copy(row, row + kRowFloats, rows + kRowFloats * at);
-        if (e < m) cand[e] = static_cast<std::uint32_t>(at);
-      }
+      const float* rows = rowsOf(store, pts, nullptr, &at);
       NearScratch gs;
       std::size_t gotCounts[3];
       gatherClassify(m, cand.data(), rows, static_cast<std::uint32_t>(m), q, threshold, near2, reach2, gs, set,
