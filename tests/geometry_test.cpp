@@ -13,6 +13,7 @@
 
 #include "core/error.hpp"
 #include "core/parallel.hpp"
+#include "geometry/clearance.hpp"
 #include "geometry/mesh.hpp"
 #include "geometry/obstacles.hpp"
 #include "geometry/signed_distance.hpp"
@@ -541,4 +542,35 @@ TEST_CASE("signedDistance: a mesh outside the grid, no obstacles, normals", "[ge
   const Vec3 expected = Vec3(1.2f, 0.3f, -0.4f).normalized();
   CHECK(n.norm() == Approx(1.0).margin(1e-5));
   CHECK(n.dot(expected) > 0.999f);
+}
+
+TEST_CASE("ObstacleClearance::distanceBound: never above distance, and within a cell diagonal of it",
+          "[geometry][sdf]") {
+  Obstacles o = meshes({icosphere(3, 0.6, Vec3d(0.2, -0.1, 0.05)), torus(24, 12, 1.1, 0.25)});
+  o.spheres.push_back(SphereObstacle{Vec3d(1.2, 1.1, 0.4), 0.3});
+  // a grid with a single cell along z too: its samples have no z neighbour
+  for (const GridSpec& spec : {GridSpec::covering(Vec3d(-2, -2, -1), Vec3d(2, 2, 1), {41, 37, 23}),
+                               GridSpec::covering(Vec3d(-2, -2, -0.1), Vec3d(2, 2, 0.1), {30, 33, 1})}) {
+    const swarmsim::ObstacleClearance c(swarmsim::signedDistance(o, spec), 0.05f, true);
+    const Grid3<float>::Sampler s = c.sdf().sampler();
+    const float diagonal = static_cast<float>(spec.cell.norm());
+    std::uint64_t state = 12345;
+    const auto uniform = [&](double lo, double hi) {
+      state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+      return static_cast<float>(lo + (hi - lo) * static_cast<double>(state >> 11) * 0x1.0p-53);
+    };
+    int above = 0, loose = 0, inside = 0;
+    for (int t = 0; t < 200000; ++t) {
+      // points inside the grid and up to half a metre beyond it (clamped like the samples)
+      const Vec3 x(uniform(-2.5, 2.5), uniform(-2.5, 2.5), uniform(spec.min.z() - 0.5, spec.max().z() + 0.5));
+      const float d = c.distance(x), b = c.distanceBound(s, x);
+      CHECK(s(x) == d);
+      above += b > d ? 1 : 0;
+      loose += b < d - diagonal * 1.001f ? 1 : 0;
+      inside += d < 0.0f ? 1 : 0;
+    }
+    CHECK(above == 0);
+    CHECK(loose == 0);
+    CHECK(inside > 1000);  // the bound is checked on both signs
+  }
 }

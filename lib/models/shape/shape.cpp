@@ -357,6 +357,7 @@ class ShapeModel final : public Model {
     const float* sy = grid_.sortedY().data();
     const float* sz = grid_.sortedZ().data();
     const bool obstacles = clearance_.any();
+    const Grid3<float>::Sampler sdfSample = clearance_.sdf().sampler();  // = clearance_.distance, set up once
     const float rAtt = static_cast<float>(p_.rAtt);
     const auto K = static_cast<std::size_t>(std::max(0, p_.neighbours));
     const float reachSlack = 2.0f * vmax * dt;  // the K-th neighbour's distance changes by at most this in a step
@@ -545,8 +546,8 @@ class ShapeModel final : public Model {
       const float sp = v.norm();
       if (sp > vmax) v *= vmax / sp;
       // eq. 8-9: near an obstacle the velocity ramps toward the tangent (only an approach is bent)
-      if (obstacles) {
-        const float dist = clearance_.distance(x);
+      if (obstacles && clearance_.distanceBound(sdfSample, x) < L) {  // (most insects: surely beyond L)
+        const float dist = sdfSample(x);
         if (dist < L) {
           const Vec3 nrm = clearance_.normal(x);
           const float vn = nrm.dot(v);
