@@ -136,6 +136,9 @@ int main(int argc, char** argv) {
   bool benchJson = false;
   CLI::App* bench = app.add_subcommand("bench", "Time scenarios (no output written); without files, the built-in cases");
   bench->add_option("scenarios", benchFiles, "Scenario JSON files");
+  std::string benchCases;
+  bench->add_option("--case", benchCases, "Without files: only these built-in cases (fmm-128, fmm-128-order2, boids-100k, orca-100k)")
+      ->type_name("NAME[,NAME...]");
   bench->add_option("--agents", benchAgents, "Agent counts N[,N...]; the spawn region and domain are rescaled to keep the density")
       ->type_name("N[,N...]");
   bench->add_option("--frames", benchFrames, "Frames to time per repetition (default: min(scenario frames, 10), more if that is under 0.1 s)")
@@ -368,6 +371,11 @@ int main(int argc, char** argv) {
       requestThreads(defaultThreadCount());
       BenchOptions opt;
       opt.scenarios = benchFiles;
+      for (std::size_t a = 0; a < benchCases.size();) {  // NAME[,NAME...]
+        const std::size_t b = std::min(benchCases.find(',', a), benchCases.size());
+        opt.cases.push_back(benchCases.substr(a, b - a));
+        a = b + 1;
+      }
       opt.overrides = benchSets;
       if (!benchAgents.empty()) opt.agents = parseList<std::int64_t>(benchAgents, "--agents");
       if (!benchThreads.empty()) opt.threads = parseList<int>(benchThreads, "--threads");

@@ -348,6 +348,20 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
     Json json;
   };
   std::vector<Source> sources;
+  const std::vector<std::string> known = builtinBenchCases();
+  for (const auto& name : options.cases) {
+    if (std::find(known.begin(), known.end(), name) == known.end()) {
+      std::string list;
+      for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
+      throw InputError("bench --case: no built-in case \"" + name + "\" (expected one of " + list + ")");
+    }
+  }
+  if (!options.cases.empty() && !options.scenarios.empty()) {
+    throw InputError("bench: --case selects built-in cases, which run only without scenario files");
+  }
+  const auto wanted = [&](const std::string& name) {
+    return options.cases.empty() || std::find(options.cases.begin(), options.cases.end(), name) != options.cases.end();
+  };
   if (options.scenarios.empty()) {
     for (const auto& c : kCases) {
       if (!c.overrides) {
@@ -362,6 +376,9 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
       for (std::string line; std::getline(lines, line);) applyOverride(json, line);
       sources.push_back({c.name, json});
     }
+    // the cases not asked for go after their variants were made from them
+    sources.erase(std::remove_if(sources.begin(), sources.end(), [&](const Source& e) { return !wanted(e.label); }),
+                  sources.end());
   } else {
     for (const auto& f : options.scenarios) sources.push_back({f, readJsonFile(f)});
   }
@@ -439,7 +456,7 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
       }
     }
   }
-  if (options.scenarios.empty()) runOrcaBench(options, agentsList, threadList, out, headerDone, rows);
+  if (options.scenarios.empty() && wanted(kOrcaCase)) runOrcaBench(options, agentsList, threadList, out, headerDone, rows);
   if (!options.json) {
     printTable1(rows, out);
     printBswarmTable(rows, out);

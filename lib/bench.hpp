@@ -11,6 +11,7 @@ namespace swarmsim {
 
 struct BenchOptions {
   std::vector<std::string> scenarios;  // files; empty: the built-in cases
+  std::vector<std::string> cases;      // with no files: only these built-in cases (builtinBenchCases()); empty: all
   std::vector<std::int64_t> agents;    // rescale to these totals (density kept); empty: as in the scenario
   std::vector<int> threads;            // thread counts; empty: the current default
   std::vector<std::string> overrides;  // --set PATH=VALUE, applied to every scenario

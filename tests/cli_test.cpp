@@ -245,6 +245,30 @@ TEST_CASE("CLI bench prints JSON lines", "[cli]") {
   CHECK(rows == 1);
 }
 
+TEST_CASE("CLI bench --case runs only the built-in cases named", "[cli]") {
+  TempDir dir;
+  // two of the four, at a small size: only their rows
+  const auto r = runCli("bench --case boids-100k,orca-100k --agents 3000 --frames 2 --repeat 1 --json", dir);
+  INFO("stdout: " << r.out << "\nstderr: " << r.err);
+  REQUIRE(r.exitCode == 0);
+  std::istringstream lines(r.out);
+  std::vector<std::string> names;
+  for (std::string line; std::getline(lines, line);) {
+    if (!line.empty()) names.push_back(parseJsonOrFail(line).at("scenario").get<std::string>());
+  }
+  CHECK(names == std::vector<std::string>{"boids-100k", "orca-100k"});
+  // a variant without its base case
+  const auto v = runCli("bench --case fmm-128-order2 --agents 1 --frames 1 --repeat 1 --json", dir);
+  REQUIRE(v.exitCode == 0);
+  CHECK_THAT(v.out, Contains("fmm-128-order2"));
+  CHECK_THAT(v.out, !Contains("\"fmm-128\""));
+  // an unknown name and a case with a file are refused, naming what is expected
+  const auto bad = runCli("bench --case boids-1m", dir);
+  CHECK(bad.exitCode == 2);
+  CHECK_THAT(bad.err, Contains("boids-1m") && Contains("orca-100k"));
+  CHECK(runCli("bench --case orca-100k " + shellQuote(kTiny), dir).exitCode == 2);
+}
+
 TEST_CASE("CLI SIGINT stops a run with a valid file", "[cli]") {
   TempDir dir;
   const std::string out = dir.file("long.h5");
