@@ -5,6 +5,8 @@
 #include "orca/orca.hpp"
 
 #include <algorithm>
+#include <cstdlib>
+#include <string>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <cstdint>
@@ -231,7 +233,16 @@ TEST_CASE("orca: k nearest neighbours match brute force, ties by index", "[orca]
   const float* sx = grid.sortedX().data();
   const float* sy = grid.sortedY().data();
   const float* sz = grid.sortedZ().data();
+  // the selection on AVX2 lanes (rank counts, up to 64 hits) and without (SWARMSIM_NO_AVX2): the same lists
+  const char* saved = std::getenv("SWARMSIM_NO_AVX2");
+  const std::string savedValue = saved ? saved : "";
+  for (const bool noAvx2 : {false, true})
   for (const int K : {1, 10, 25}) {
+    if (noAvx2) {
+      setenv("SWARMSIM_NO_AVX2", "1", 1);
+    } else {
+      unsetenv("SWARMSIM_NO_AVX2");
+    }
     Params p = paramsFor(0.1f);
     p.maxNeighbors = K;
     p.neighborDistance = 6.0f;
@@ -241,7 +252,7 @@ TEST_CASE("orca: k nearest neighbours match brute force, ties by index", "[orca]
     for (int round = 0; round < 2; ++round) {
       solver.solve(grid, zero.data(), zero.data(), zero.data(), zero.data(), zero.data(), zero.data(), p, {}, 0.1f,
                    out.data(), out.data() + n, out.data() + 2 * n);
-      INFO("K " << K << " round " << round << " cell " << solver.searchCell() << " widened "
+      INFO("K " << K << " round " << round << " SWARMSIM_NO_AVX2 " << noAvx2 << " cell " << solver.searchCell() << " widened "
                 << solver.widenedSearches());
       std::size_t mismatches = 0;
       std::vector<std::pair<float, std::uint32_t>> all;
@@ -265,6 +276,11 @@ TEST_CASE("orca: k nearest neighbours match brute force, ties by index", "[orca]
       widened += solver.widenedSearches();
     }
     CHECK(widened > 0);  // the halo and the loners needed wider searches
+  }
+  if (saved) {
+    setenv("SWARMSIM_NO_AVX2", savedValue.c_str(), 1);
+  } else {
+    unsetenv("SWARMSIM_NO_AVX2");
   }
 }
 

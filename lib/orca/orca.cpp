@@ -7,6 +7,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "core/lanes.hpp"
 #include "core/parallel.hpp"
 #include "geometry/signed_distance.hpp"
 
@@ -306,6 +307,70 @@ inline float keyDistance2(std::uint64_t key) {
   return d2;
 }
 
+// The k nearest of an agent's block candidates, best[0, K) ascending (kEmpty past the found ones), as
+// insertBest of each hit in turn gives them. keys[0, h): the hits' keys (distinct: the index is in them).
+inline void selectNearestScalar(const std::uint64_t* keys, std::size_t h, std::uint64_t* best, std::size_t K) {
+  std::fill(best, best + K, kEmpty);
+  for (std::size_t t = 0; t < h; ++t) insertBest(best, K, keys[t]);
+}
+
+#if SWARMSIM_X86_LANES
+// at most this many hits go through the rank count (quadratic); more take the scalar insertion
+constexpr std::size_t kRankMax = 64;
+
+// selectNearestScalar's result without a branch per comparison: each key's rank is the number of smaller keys
+// (they are distinct), counted four at a time, and a key of rank below K goes to best[rank]. Keys are below
+// 2^63 (a squared distance's bits, never negative, above the index), so signed 64-bit compares order them.
+// keys[] has room for whole lanes: the entries from h on are set to the largest key here.
+SWARMSIM_AVX2 void selectNearestAvx2(std::uint64_t* keys, std::size_t h, std::uint64_t* best, std::size_t K) {
+  std::fill(best, best + K, kEmpty);
+  const std::size_t padded = (h + 3) / 4 * 4;
+  for (std::size_t t = h; t < padded; ++t) keys[t] = std::numeric_limits<std::int64_t>::max();
+  for (std::size_t i = 0; i < h; ++i) {
+    const __m256i key = _mm256_set1_epi64x(static_cast<long long>(keys[i]));
+    std::size_t rank = 0;
+    for (std::size_t j = 0; j < padded; j += 4) {
+      const __m256i other = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(keys + j));
+      rank += static_cast<std::size_t>(
+          __builtin_popcount(static_cast<unsigned>(_mm256_movemask_pd(_mm256_castsi256_pd(_mm256_cmpgt_epi64(key, other))))));
+    }
+    if (rank < K) best[rank] = keys[i];
+  }
+}
+
+// The block entries within `limit` of q (squared), in block order, to hits[0, returned); their squared distances
+// to d2s[0, size) (the same operations as the scalar loop: dx dx + dy dy + dz dz). The block's arrays hold whole
+// lanes past size (CellBlock::kSlack); lanes from size on are left out.
+SWARMSIM_AVX2 std::size_t blockHitsAvx2(const CellBlock& block, float qx, float qy, float qz, float limit, float* d2s,
+                                        std::uint32_t* hits) {
+  const std::size_t size = block.size;
+  const __m256 vx = _mm256_set1_ps(qx), vy = _mm256_set1_ps(qy), vz = _mm256_set1_ps(qz), vl = _mm256_set1_ps(limit);
+  std::size_t found = 0;
+  for (std::size_t j = 0; j < size; j += 8) {
+    const __m256 dx = _mm256_sub_ps(_mm256_loadu_ps(block.x.data() + j), vx);
+    const __m256 dy = _mm256_sub_ps(_mm256_loadu_ps(block.y.data() + j), vy);
+    const __m256 dz = _mm256_sub_ps(_mm256_loadu_ps(block.z.data() + j), vz);
+    const __m256 d2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
+    _mm256_storeu_ps(d2s + j, d2);
+    unsigned mask = static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(d2, vl, _CMP_LE_OQ)));
+    if (size - j < 8) mask &= (1u << (size - j)) - 1u;
+    found += packLaneIndices(static_cast<std::uint32_t>(j), mask, hits + found);
+  }
+  return found;
+}
+// the same from d2s, for a second limit
+SWARMSIM_AVX2 std::size_t rehitAvx2(const float* d2s, std::size_t size, float limit, std::uint32_t* hits) {
+  const __m256 vl = _mm256_set1_ps(limit);
+  std::size_t found = 0;
+  for (std::size_t j = 0; j < size; j += 8) {
+    unsigned mask = static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(_mm256_loadu_ps(d2s + j), vl, _CMP_LE_OQ)));
+    if (size - j < 8) mask &= (1u << (size - j)) - 1u;
+    found += packLaneIndices(static_cast<std::uint32_t>(j), mask, hits + found);
+  }
+  return found;
+}
+#endif
+
 // few points: not worth waking the team
 constexpr std::size_t kSerialBelow = 256;
 template <typename F>
@@ -466,6 +531,8 @@ void Solver::findNeighbors(const UniformGrid& grid, const Params& params) {
   }
   const float binScale = static_cast<float>(kBins) / nd;
 
+  const LaneSet lanes = laneSet();
+  const bool wide = lanes == LaneSet::kAvx2 || lanes == LaneSet::kAvx512;  // the selection on AVX2 (same result)
   const auto cellWork = [&](std::size_t c) {
     const std::uint32_t a0 = sg.cellBegin(c), a1 = sg.cellEnd(c);
     if (a0 == a1) return;
@@ -480,6 +547,35 @@ void Solver::findNeighbors(const UniformGrid& grid, const Params& params) {
       // (the previous agent's: the cell's agents are close together) so that few
       // candidates go through the selection; if that leaves fewer than k, the block radius
       const std::size_t size = block.size;
+#if SWARMSIM_X86_LANES
+      if (wide) {
+        // the same hits and keys as below, eight candidates at a time, and the k nearest by rank counts
+        float* d2w = block.d2.data();
+        std::uint32_t* hitw = block.hits.data();
+        std::size_t hits = guess < blockLimit ? blockHitsAvx2(block, qx, qy, qz, guess, d2w, hitw) : 0;
+        if (guess >= blockLimit) {
+          hits = blockHitsAvx2(block, qx, qy, qz, blockLimit, d2w, hitw);
+        } else if (hits <= K) {
+          hits = rehitAvx2(d2w, size, blockLimit, hitw);
+        }
+        if (ts.keys.size() < size + 4) ts.keys.resize(size + 4);  // grows to the largest block, then stays
+        std::uint64_t* keys = ts.keys.data();
+        std::size_t nk = 0;
+        for (std::size_t t = 0; t < hits; ++t) {
+          const std::uint32_t b = hitw[t];
+          const std::uint32_t other = block.index[b];
+          const float d2 = d2w[b];
+          keys[nk] = neighborKey(d2, order[other]);
+          nk += static_cast<std::size_t>(other != m && d2 < nd2);
+        }
+        if (nk <= kRankMax) {
+          selectNearestAvx2(keys, nk, best, K);
+        } else {
+          selectNearestScalar(keys, nk, best, K);
+        }
+      } else
+#endif
+      {
       {
         const float* __restrict bx = block.x.data();
         const float* __restrict by = block.y.data();
@@ -509,6 +605,7 @@ void Solver::findNeighbors(const UniformGrid& grid, const Params& params) {
         const float d2 = d2s[b];
         if (other == m || !(d2 < nd2)) continue;
         insertBest(best, K, neighborKey(d2, order[other]));
+      }
       }
       if (!blockIsAll && !(best[K - 1] != kEmpty && keyDistance2(best[K - 1]) <= finalBelow)) {
         // the k-th may lie outside the block. Once k candidates are known, the k-th

@@ -109,6 +109,7 @@ class Solver {
   struct alignas(64) ThreadScratch {
     CellBlock block;                  // candidates of one cell's neighbourhood
     std::vector<std::uint64_t> best;  // k nearest so far: (squared distance bits << 32) | index, ascending
+    std::vector<std::uint64_t> keys;  // the block hits' keys (the AVX2 selection)
     std::vector<Plane> planes, projected;
     std::vector<float> batch;  // the neighbours' relative positions and velocities, then their planes (SoA)
     std::vector<std::uint32_t> histogram;
