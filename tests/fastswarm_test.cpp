@@ -664,31 +664,78 @@ TEST_CASE("fastswarm: with successors the agents fly on real tracks and move lik
   const auto r = runSwarmsim("run " + shellQuote(scenario) + " --quiet -o r.h5", dir.path());
   INFO(r.err);
   REQUIRE(r.exitCode == 0);
-  // most steps go on to the sample that followed the current one in its real track (measured 0.70)
-  const auto follow = swarmsim::readDoubleDataset(dir.file("r.h5"), "swarms/mosquitoes/stats/successor_fraction");
-  REQUIRE(follow.size() == 1000);
-  CHECK(follow[0] == 0.0);  // frame 0: no step yet
-  double mean = 0.0;
-  for (std::size_t f = 1; f < follow.size(); ++f) mean += follow[f] / static_cast<double>(follow.size() - 1);
-  CHECK(mean > 0.5);
-  // without successors there is no such statistic
-  const auto plain = runSwarmsim("run " + shellQuote(scenario) + " --quiet --frames 3 -o p.h5 --set 'swarms[0].params.successors=false'", dir.path());
+  // most steps go on to the sample that followed the current one in its real track
+  const auto meanFollow = [&](const std::string& file) {
+    const auto follow = swarmsim::readDoubleDataset(dir.file(file), "swarms/mosquitoes/stats/successor_fraction");
+    REQUIRE(follow.size() >= 2);
+    CHECK(follow[0] == 0.0);  // frame 0: no step yet
+    double mean = 0.0;
+    for (std::size_t f = 1; f < follow.size(); ++f) mean += follow[f] / static_cast<double>(follow.size() - 1);
+    return mean;
+  };
+  const double follow = meanFollow("r.h5");
+  CHECK(follow > 0.8);
+  // with successor_margin 1 (the successor only when its E is the lowest) fewer do
+  const auto plainMargin = runSwarmsim("run " + shellQuote(scenario) +
+                                           " --quiet --frames 300 -o m.h5 --set 'swarms[0].params.successor_margin=1'",
+                                       dir.path());
+  REQUIRE(plainMargin.exitCode == 0);
+  CHECK(meanFollow("m.h5") < follow - 0.1);
+  // without successors there is no such statistic, and a margin without them is refused
+  const auto plain = runSwarmsim("run " + shellQuote(scenario) + " --quiet --frames 3 -o p.h5 --set 'swarms[0].params.successors=false' --set 'swarms[0].params.successor_margin=1'", dir.path());
   REQUIRE(plain.exitCode == 0);
   CHECK_THROWS(swarmsim::readDoubleDataset(dir.file("p.h5"), "swarms/mosquitoes/stats/successor_fraction"));
-  // against the real tracks, in physical units (W1 of the speed, acceleration and nearest-neighbour distance
-  // distributions; measured 0.083 m/s, 0.50 m/s^2, 0.052 m, the bswarm midges of midges_500 0.29, 1.04, 0.15)
+  const auto refused = runSwarmsim("validate " + shellQuote(scenario) + " --set 'swarms[0].params.successors=false'", dir.path());
+  CHECK(refused.exitCode == 2);
+  CHECK_THAT(refused.err, Contains("params.successor_margin") && Contains("successors"));
+
   const std::string tracks = swarmsim_test::kSourceTree + "/../shared/data/real/anopheles_swarm_moustic/tracks.csv";
   if (!std::ifstream(tracks)) {
     WARN("skipped the comparison with the real tracks: " << tracks << " not found");
     return;
   }
-  const auto e = runSwarmsim("evaluate r.h5 --json --reference " + shellQuote(tracks), dir.path());
-  INFO(e.err);
-  REQUIRE(e.exitCode == 0);
-  const auto j = nlohmann::json::parse(e.out);
+  const auto evaluate = [&](const std::string& sim, const std::string& ref) {
+    const auto e = runSwarmsim("evaluate " + sim + " --json --bootstrap 0 --reference " + shellQuote(ref), dir.path());
+    INFO(e.err);
+    REQUIRE(e.exitCode == 0);
+    return nlohmann::json::parse(e.out);
+  };
+  // against the real tracks: the issue's E >= 0.85 (the paper's seven z-scored distributions), and in physical
+  // units (W1 of speed, acceleration and nearest-neighbour distance) closer than the bswarm midges of
+  // midges_500 (0.29 m/s, 1.04 m/s^2, 0.15 m; docs/evaluation.md)
+  const auto j = evaluate("r.h5", tracks);
   std::map<std::string, double> w1;
   for (const auto& m : j["metrics"]) w1[m["name"].get<std::string>()] = m["w1"].get<double>();
-  CHECK(w1.at("v") < 0.15);
-  CHECK(w1.at("a") < 0.8);
-  CHECK(w1.at("d") < 0.1);
+  INFO("E " << j["total"] << " W1 v " << w1.at("v") << " a " << w1.at("a") << " d " << w1.at("d"));
+  CHECK(j["total"].get<double>() >= 0.85);
+  CHECK(w1.at("v") < 0.29);
+  CHECK(w1.at("a") < 1.04);
+  CHECK(w1.at("d") < 0.15);
+
+  // held out: the reference built from the first half of the recording (before 39.83 s), the agents scored
+  // against the second half, which the reference never saw; the two real halves score E 0.867 against each other
+  std::ifstream in(tracks);
+  std::ofstream first(dir.file("first.csv")), second(dir.file("second.csv"));
+  std::string line;
+  REQUIRE(std::getline(in, line));
+  first << line << "\n";
+  second << line << "\n";
+  while (std::getline(in, line)) {  // object;oldobject;time;...
+    const std::size_t a = line.find(';'), b = line.find(';', a + 1);
+    (std::stod(line.substr(b + 1)) < 39.83 ? first : second) << line << "\n";
+  }
+  first.close();
+  second.close();
+  const auto built = runSwarmsim("reference build first.csv --fence 6 -o first.h5", dir.path());
+  INFO(built.err);
+  REQUIRE(built.exitCode == 0);
+  const auto h = runSwarmsim("run " + shellQuote(scenario) + " --quiet -o h.h5 --set swarms[0].params.reference=" +
+                                 shellQuote(dir.file("first.h5")),
+                             dir.path());
+  REQUIRE(h.exitCode == 0);
+  const double heldOut = evaluate("h.h5", dir.file("second.csv"))["total"].get<double>();
+  const double halves = evaluate(dir.file("first.csv"), dir.file("second.csv"))["total"].get<double>();
+  INFO("held out E " << heldOut << ", the real halves " << halves);
+  CHECK(heldOut >= 0.85);
+  CHECK(halves == Approx(0.867).margin(0.001));
 }

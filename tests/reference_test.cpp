@@ -314,9 +314,14 @@ TEST_CASE("reference: the shipped mosquito reference is what its README's comman
     WARN("skipped: " << tracks << " not found");
     return;
   }
-  const Reference shipped = readReference(swarmsim_test::kSourceTree + "/data/reference/anopheles_moustic.h5");
-  ReferenceBuildOptions opt;  // the README's command: every default
+  // the README's commands: every default, and --fence 6 (fastswarm_realistic_37's reference)
+  for (const double fence : {3.0, 6.0}) {
+  INFO("fence " << fence);
+  const Reference shipped = readReference(swarmsim_test::kSourceTree + (fence == 3.0 ? "/data/reference/anopheles_moustic.h5"
+                                                                                     : "/data/reference/anopheles_moustic_fence6.h5"));
+  ReferenceBuildOptions opt;
   opt.tracks = {tracks};
+  opt.fence = fence;
   const Reference rebuilt = buildReference(opt);
   CHECK(rebuilt.v == shipped.v);
   CHECK(rebuilt.a == shipped.a);
@@ -337,4 +342,6 @@ TEST_CASE("reference: the shipped mosquito reference is what its README's comman
   CHECK(shipped.dt == Approx(0.02));
   CHECK(shipped.speed[shipped.size() / 2] == Approx(0.465).epsilon(0.02));
   CHECK(shipped.size() > 29000);
+  CHECK(shipped.sources[0].dropped == (fence == 3.0 ? 269 : 20));  // data/reference/README.md
+  }
 }

@@ -510,8 +510,11 @@ class Fastswarm final : public Model {
         // the sample that followed the agent's current one in its real track, when outside the window
         const std::int64_t cur = current_[id];
         const std::int64_t nxt = cur >= 0 ? ref.next[static_cast<std::size_t>(cur)] : -1;
-        if (nxt >= 0 && (static_cast<std::size_t>(nxt) < first || static_cast<std::size_t>(nxt) >= last) &&
-            fastswarm::energyTermsWith(avx, in, cand_, static_cast<std::size_t>(nxt), ep).total() < bestE) {
+        // (inside the window with margin 1 the argmin already decided: its E is not below the least)
+        const bool outside = nxt >= 0 && (static_cast<std::size_t>(nxt) < first || static_cast<std::size_t>(nxt) >= last);
+        if (nxt >= 0 && static_cast<std::int64_t>(c) != nxt && (outside || p_.successorMargin > 1.0f) &&
+            fastswarm::energyTermsWith(avx, in, cand_, static_cast<std::size_t>(nxt), ep).total() <
+                p_.successorMargin * bestE) {
           c = static_cast<std::size_t>(nxt);
         }
         if (nxt >= 0 && static_cast<std::int64_t>(c) == nxt) followed_.fetch_add(1, std::memory_order_relaxed);
@@ -630,6 +633,10 @@ FastswarmParams readFastswarmParams(JsonReader& r, const ModelContext& context) 
   if (!(e.dAtt1 <= static_cast<float>(p.dAtt2))) r.fail("d_att2", "expected d_att1 <= d_att2");
   p.candidates = r.integer("candidates", p.candidates, 1, 100000000);
   p.successors = r.boolean("successors", p.successors);
+  p.successorMargin = static_cast<float>(r.number("successor_margin", p.successorMargin, Range::closed(1.0, 1e6)));
+  if (p.successorMargin != 1.0f && !p.successors) {
+    r.fail("successor_margin", "applies to successors only (expected \"successors\": true, or no successor_margin)");
+  }
   if (p.successors && p.reference->next.empty()) {
     r.fail("successors", p.referencePath + " has no successor table (format version 1): rebuild it with swarmsim reference build");
   }

@@ -61,6 +61,10 @@ struct FastswarmParams {
   // also search the sample that followed the agent's current one in its real track (Reference::next): not in
   // the paper; lets an agent go on flying a real insect's motion while nothing pulls it away
   bool successors = false;
+  // with successors: the successor is taken when its E is below this many times the window's least E (1: only
+  // when it is lower; larger: an agent keeps flying its real insect's motion until the other terms pull harder
+  // than that). Not in the paper
+  float successorMargin = 1.0f;
   std::optional<Vec3d> center;     // the swarm centre of E_cos; none: the swarm's centroid each step
   double noiseScale = 0.5;         // lattice cell of the curl noise, m
   std::optional<KeypointCurve> control;  // user control (E_user, eq. 14-15)
