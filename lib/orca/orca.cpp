@@ -576,36 +576,36 @@ void Solver::findNeighbors(const UniformGrid& grid, const Params& params) {
       } else
 #endif
       {
-      {
-        const float* __restrict bx = block.x.data();
-        const float* __restrict by = block.y.data();
-        const float* __restrict bz = block.z.data();
-        float* __restrict dd = block.d2.data();
-        for (std::size_t j = 0; j < size; ++j) {  // vectorises
-          const float dx = bx[j] - qx, dy = by[j] - qy, dz = bz[j] - qz;
-          dd[j] = dx * dx + dy * dy + dz * dz;
+        {
+          const float* __restrict bx = block.x.data();
+          const float* __restrict by = block.y.data();
+          const float* __restrict bz = block.z.data();
+          float* __restrict dd = block.d2.data();
+          for (std::size_t j = 0; j < size; ++j) {  // vectorises
+            const float dx = bx[j] - qx, dy = by[j] - qy, dz = bz[j] - qz;
+            dd[j] = dx * dx + dy * dy + dz * dz;
+          }
         }
-      }
-      const float* d2s = block.d2.data();
-      std::uint32_t* hit = block.hits.data();
-      const auto compact = [&](float limit) {
-        std::size_t found = 0;
-        for (std::size_t j = 0; j < size; ++j) {  // branch-free
-          hit[found] = static_cast<std::uint32_t>(j);
-          found += d2s[j] <= limit ? 1u : 0u;
+        const float* d2s = block.d2.data();
+        std::uint32_t* hit = block.hits.data();
+        const auto compact = [&](float limit) {
+          std::size_t found = 0;
+          for (std::size_t j = 0; j < size; ++j) {  // branch-free
+            hit[found] = static_cast<std::uint32_t>(j);
+            found += d2s[j] <= limit ? 1u : 0u;
+          }
+          return found;
+        };
+        std::size_t hits = guess < blockLimit ? compact(guess) : 0;
+        if (hits <= K) hits = compact(blockLimit);  // (the agent itself is one of the hits)
+        std::fill(best, best + K, kEmpty);
+        for (std::size_t t = 0; t < hits; ++t) {
+          const std::uint32_t b = hit[t];
+          const std::uint32_t other = block.index[b];
+          const float d2 = d2s[b];
+          if (other == m || !(d2 < nd2)) continue;
+          insertBest(best, K, neighborKey(d2, order[other]));
         }
-        return found;
-      };
-      std::size_t hits = guess < blockLimit ? compact(guess) : 0;
-      if (hits <= K) hits = compact(blockLimit);  // (the agent itself is one of the hits)
-      std::fill(best, best + K, kEmpty);
-      for (std::size_t t = 0; t < hits; ++t) {
-        const std::uint32_t b = hit[t];
-        const std::uint32_t other = block.index[b];
-        const float d2 = d2s[b];
-        if (other == m || !(d2 < nd2)) continue;
-        insertBest(best, K, neighborKey(d2, order[other]));
-      }
       }
       if (!blockIsAll && !(best[K - 1] != kEmpty && keyDistance2(best[K - 1]) <= finalBelow)) {
         // the k-th may lie outside the block. Once k candidates are known, the k-th
