@@ -551,7 +551,8 @@ TEST_CASE("ObstacleClearance::distanceBound: never above distance, and within a 
   // a grid with a single cell along z too: its samples have no z neighbour
   for (const GridSpec& spec : {GridSpec::covering(Vec3d(-2, -2, -1), Vec3d(2, 2, 1), {41, 37, 23}),
                                GridSpec::covering(Vec3d(-2, -2, -0.1), Vec3d(2, 2, 0.1), {30, 33, 1})}) {
-    const swarmsim::ObstacleClearance c(swarmsim::signedDistance(o, spec), 0.05f, true);
+    swarmsim::ObstacleClearance c(swarmsim::signedDistance(o, spec), 0.05f, true);
+    c.prepareDistanceBound();
     const Grid3<float>::Sampler s = c.sdf().sampler();
     const float diagonal = static_cast<float>(spec.cell.norm());
     std::uint64_t state = 12345;

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <optional>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -15,6 +16,7 @@
 #include "fields/noise_field.hpp"
 #include "geometry/obstacles.hpp"
 #include "geometry/signed_distance.hpp"
+#include "test_util.hpp"
 
 using swarmsim::Aabb;
 using swarmsim::GridSpec;
@@ -52,21 +54,14 @@ bool cpuHasAvx() {
 
 // SWARMSIM_NO_AVX set for its lifetime, and then restored to what it was
 struct NoAvxGuard {
-  bool was = std::getenv("SWARMSIM_NO_AVX") != nullptr;
-  std::string saved = was ? std::getenv("SWARMSIM_NO_AVX") : "";
-  NoAvxGuard() { setenv("SWARMSIM_NO_AVX", "1", 1); }
-  ~NoAvxGuard() { was ? setenv("SWARMSIM_NO_AVX", saved.c_str(), 1) : unsetenv("SWARMSIM_NO_AVX"); }
+  swarmsim_test::EnvGuard env{"SWARMSIM_NO_AVX", "1"};
 };
 
 // SWARMSIM_NO_AVX512 set for its lifetime when `on` (and then restored)
 struct NoAvx512Guard {
-  bool on, was = std::getenv("SWARMSIM_NO_AVX512") != nullptr;
-  std::string saved = was ? std::getenv("SWARMSIM_NO_AVX512") : "";
-  explicit NoAvx512Guard(bool set) : on(set) {
-    if (on) setenv("SWARMSIM_NO_AVX512", "1", 1);
-  }
-  ~NoAvx512Guard() {
-    if (on) was ? setenv("SWARMSIM_NO_AVX512", saved.c_str(), 1) : unsetenv("SWARMSIM_NO_AVX512");
+  std::optional<swarmsim_test::EnvGuard> env;
+  explicit NoAvx512Guard(bool set) {
+    if (set) env.emplace("SWARMSIM_NO_AVX512", "1");
   }
 };
 

@@ -5,8 +5,6 @@
 #include "orca/orca.hpp"
 
 #include <algorithm>
-#include <cstdlib>
-#include <string>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <cstdint>
@@ -21,6 +19,7 @@
 #include "geometry/obstacles.hpp"
 #include "geometry/signed_distance.hpp"
 #include "spatial/uniform_grid.hpp"
+#include "test_util.hpp"
 
 using swarmsim::UniformGrid;
 using swarmsim::Vec3;
@@ -234,53 +233,43 @@ TEST_CASE("orca: k nearest neighbours match brute force, ties by index", "[orca]
   const float* sy = grid.sortedY().data();
   const float* sz = grid.sortedZ().data();
   // the selection on AVX2 lanes (rank counts, up to 64 hits) and without (SWARMSIM_NO_AVX2): the same lists
-  const char* saved = std::getenv("SWARMSIM_NO_AVX2");
-  const std::string savedValue = saved ? saved : "";
-  for (const bool noAvx2 : {false, true})
-  for (const int K : {1, 10, 25}) {
-    if (noAvx2) {
-      setenv("SWARMSIM_NO_AVX2", "1", 1);
-    } else {
-      unsetenv("SWARMSIM_NO_AVX2");
-    }
-    Params p = paramsFor(0.1f);
-    p.maxNeighbors = K;
-    p.neighborDistance = 6.0f;
-    Solver solver;
-    // the first solve guesses the search cell from the density, the second adapts it
-    std::size_t widened = 0;
-    for (int round = 0; round < 2; ++round) {
-      solver.solve(grid, zero.data(), zero.data(), zero.data(), zero.data(), zero.data(), zero.data(), p, {}, 0.1f,
-                   out.data(), out.data() + n, out.data() + 2 * n);
-      INFO("K " << K << " round " << round << " SWARMSIM_NO_AVX2 " << noAvx2 << " cell " << solver.searchCell() << " widened "
-                << solver.widenedSearches());
-      std::size_t mismatches = 0;
-      std::vector<std::pair<float, std::uint32_t>> all;
-      for (std::size_t k = 0; k < n; ++k) {
-        all.clear();
-        for (std::size_t o = 0; o < n; ++o) {
-          if (o == k) continue;
-          const float dx = sx[o] - sx[k], dy = sy[o] - sy[k], dz = sz[o] - sz[k];
-          const float d2 = dx * dx + dy * dy + dz * dz;
-          if (d2 < p.neighborDistance * p.neighborDistance) all.emplace_back(d2, static_cast<std::uint32_t>(o));
+  for (const bool noAvx2 : {false, true}) {
+    const swarmsim_test::EnvGuard lanes("SWARMSIM_NO_AVX2", noAvx2 ? "1" : nullptr);
+    for (const int K : {1, 10, 25}) {
+      Params p = paramsFor(0.1f);
+      p.maxNeighbors = K;
+      p.neighborDistance = 6.0f;
+      Solver solver;
+      // the first solve guesses the search cell from the density, the second adapts it
+      std::size_t widened = 0;
+      for (int round = 0; round < 2; ++round) {
+        solver.solve(grid, zero.data(), zero.data(), zero.data(), zero.data(), zero.data(), zero.data(), p, {}, 0.1f,
+                     out.data(), out.data() + n, out.data() + 2 * n);
+        INFO("K " << K << " round " << round << " SWARMSIM_NO_AVX2 " << noAvx2 << " cell " << solver.searchCell() << " widened "
+                  << solver.widenedSearches());
+        std::size_t mismatches = 0;
+        std::vector<std::pair<float, std::uint32_t>> all;
+        for (std::size_t k = 0; k < n; ++k) {
+          all.clear();
+          for (std::size_t o = 0; o < n; ++o) {
+            if (o == k) continue;
+            const float dx = sx[o] - sx[k], dy = sy[o] - sy[k], dz = sz[o] - sz[k];
+            const float d2 = dx * dx + dy * dy + dz * dz;
+            if (d2 < p.neighborDistance * p.neighborDistance) all.emplace_back(d2, static_cast<std::uint32_t>(o));
+          }
+          std::sort(all.begin(), all.end());
+          all.resize(std::min(all.size(), static_cast<std::size_t>(K)));
+          std::size_t count = 0;
+          const std::uint32_t* nb = solver.neighbors(k, count);
+          bool same = count == all.size();
+          for (std::size_t t = 0; same && t < count; ++t) same = nb[t] == all[t].second;
+          if (!same) ++mismatches;
         }
-        std::sort(all.begin(), all.end());
-        all.resize(std::min(all.size(), static_cast<std::size_t>(K)));
-        std::size_t count = 0;
-        const std::uint32_t* nb = solver.neighbors(k, count);
-        bool same = count == all.size();
-        for (std::size_t t = 0; same && t < count; ++t) same = nb[t] == all[t].second;
-        if (!same) ++mismatches;
+        CHECK(mismatches == 0);
+        widened += solver.widenedSearches();
       }
-      CHECK(mismatches == 0);
-      widened += solver.widenedSearches();
+      CHECK(widened > 0);  // the halo and the loners needed wider searches
     }
-    CHECK(widened > 0);  // the halo and the loners needed wider searches
-  }
-  if (saved) {
-    setenv("SWARMSIM_NO_AVX2", savedValue.c_str(), 1);
-  } else {
-    unsetenv("SWARMSIM_NO_AVX2");
   }
 }
 

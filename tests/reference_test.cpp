@@ -316,32 +316,32 @@ TEST_CASE("reference: the shipped mosquito reference is what its README's comman
   }
   // the README's commands: every default, and --fence 6 (fastswarm_realistic_37's reference)
   for (const double fence : {3.0, 6.0}) {
-  INFO("fence " << fence);
-  const Reference shipped = readReference(swarmsim_test::kSourceTree + (fence == 3.0 ? "/data/reference/anopheles_moustic.h5"
-                                                                                     : "/data/reference/anopheles_moustic_fence6.h5"));
-  ReferenceBuildOptions opt;
-  opt.tracks = {tracks};
-  opt.fence = fence;
-  const Reference rebuilt = buildReference(opt);
-  CHECK(rebuilt.v == shipped.v);
-  CHECK(rebuilt.a == shipped.a);
-  CHECK(rebuilt.speed == shipped.speed);
-  CHECK(rebuilt.groupStart == shipped.groupStart);
-  CHECK(rebuilt.next == shipped.next);
-  CHECK(shipped.formatVersion == 2);
-  CHECK(rebuilt.dt == shipped.dt);
-  CHECK(rebuilt.speedLimit == shipped.speedLimit);
-  CHECK(rebuilt.accelLimit == shipped.accelLimit);
-  REQUIRE(shipped.sources.size() == 1);
-  CHECK(rebuilt.sources[0].sha256 == shipped.sources[0].sha256);
-  CHECK(rebuilt.sources[0].samples == shipped.sources[0].samples);
-  CHECK(rebuilt.sources[0].dropped == shipped.sources[0].dropped);
-  CHECK(shipped.sources[0].name == "tracks.csv");
-  CHECK(shipped.sources[0].velocity == "recorded");
-  // the real data's figures (../shared's README: median speed 0.465 m/s, 50 frames/s)
-  CHECK(shipped.dt == Approx(0.02));
-  CHECK(shipped.speed[shipped.size() / 2] == Approx(0.465).epsilon(0.02));
-  CHECK(shipped.size() > 29000);
-  CHECK(shipped.sources[0].dropped == (fence == 3.0 ? 269 : 20));  // data/reference/README.md
+    INFO("fence " << fence);
+    const Reference shipped = readReference(swarmsim_test::kSourceTree + (fence == 3.0 ? "/data/reference/anopheles_moustic.h5"
+                                                                                       : "/data/reference/anopheles_moustic_fence6.h5"));
+    ReferenceBuildOptions opt;
+    opt.tracks = {tracks};
+    opt.fence = fence;
+    const Reference rebuilt = buildReference(opt);
+    CHECK(rebuilt.v == shipped.v);
+    CHECK(rebuilt.a == shipped.a);
+    CHECK(rebuilt.speed == shipped.speed);
+    CHECK(rebuilt.groupStart == shipped.groupStart);
+    CHECK(rebuilt.next == shipped.next);
+    CHECK(shipped.formatVersion == 2);
+    CHECK(rebuilt.dt == shipped.dt);
+    CHECK(rebuilt.speedLimit == shipped.speedLimit);
+    CHECK(rebuilt.accelLimit == shipped.accelLimit);
+    REQUIRE(shipped.sources.size() == 1);
+    CHECK(rebuilt.sources[0].sha256 == shipped.sources[0].sha256);
+    CHECK(rebuilt.sources[0].samples == shipped.sources[0].samples);
+    CHECK(rebuilt.sources[0].dropped == shipped.sources[0].dropped);
+    CHECK(shipped.sources[0].name == "tracks.csv");
+    CHECK(shipped.sources[0].velocity == "recorded");
+    // the real data's figures (../shared's README: median speed 0.465 m/s, 50 frames/s)
+    CHECK(shipped.dt == Approx(0.02));
+    CHECK(shipped.speed[shipped.size() / 2] == Approx(0.465).epsilon(0.02));
+    CHECK(shipped.size() > 29000);
+    CHECK(shipped.sources[0].dropped == (fence == 3.0 ? 269 : 20));  // data/reference/README.md
   }
 }

@@ -181,6 +181,20 @@ inline bool waitForFile(const std::string& path, pid_t pid, long ms) {
   return false;
 }
 
+// an environment variable set to `value` (or unset, for nullptr) for the guard's lifetime, then restored
+struct EnvGuard {
+  std::string name;
+  bool was;
+  std::string saved;
+  EnvGuard(const char* variable, const char* value)
+      : name(variable), was(std::getenv(variable) != nullptr), saved(was ? std::getenv(variable) : "") {
+    value ? setenv(variable, value, 1) : unsetenv(variable);
+  }
+  ~EnvGuard() { was ? setenv(name.c_str(), saved.c_str(), 1) : unsetenv(name.c_str()); }
+  EnvGuard(const EnvGuard&) = delete;
+  EnvGuard& operator=(const EnvGuard&) = delete;
+};
+
 // restores the thread count on scope exit
 struct ThreadCountGuard {
   int saved = swarmsim::threadCount();

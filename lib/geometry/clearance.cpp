@@ -12,6 +12,14 @@ ObstacleClearance::ObstacleClearance(Grid3<float> sdf, float radius, bool any)
   const float margin = radius_ + 2.0f * static_cast<float>(sdf_.spec.cell.norm());
   far_.resize(sdf_.data.size());
   parallelFor(far_.size(), [&](std::size_t c) { far_[c] = sdf_.data[c] >= margin ? 1 : 0; });
+  for (int a = 0; a < 3; ++a) {
+    min_[a] = static_cast<float>(sdf_.spec.min[a]);
+    inv_[a] = static_cast<float>(1.0 / sdf_.spec.cell[a]);
+    top_[a] = static_cast<float>(sdf_.spec.n[a] - 1);
+  }
+}
+
+void ObstacleClearance::prepareDistanceBound() {
   // distanceBound: a trilinear blend of values >= m is >= m up to its three levels of rounding (each a
   // relative 2^-24 or so for the blend and for g = 1 - f): 1e-6 of |m| covers them, 1e-30 the subnormals
   const GridSpec& g = sdf_.spec;
@@ -28,11 +36,6 @@ ObstacleClearance::ObstacleClearance(Grid3<float> sdf, float radius, bool any)
     for (const std::size_t o : {ox, oy, ox + oy, oz, oz + ox, oz + oy, oz + oy + ox}) m = std::min(m, sdf_.data[b + o]);
     cornerMin_[b] = std::isfinite(m) ? m - 1e-6f * std::fabs(m) - 1e-30f : m;
   });
-  for (int a = 0; a < 3; ++a) {
-    min_[a] = static_cast<float>(sdf_.spec.min[a]);
-    inv_[a] = static_cast<float>(1.0 / sdf_.spec.cell[a]);
-    top_[a] = static_cast<float>(sdf_.spec.n[a] - 1);
-  }
 }
 
 Vec3 ObstacleClearance::normal(const Vec3& x) const {

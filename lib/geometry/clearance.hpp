@@ -30,7 +30,9 @@ class ObstacleClearance {
   // A lower bound of distance(x) from one look-up: the smallest of the eight grid values that distance(x)
   // blends, less their blend's rounding, so distanceBound(s, x) <= distance(x) always. A caller that needs the
   // distance only below some range skips distance(x) where the bound is already beyond it. `s` is
-  // sdf().sampler() (the same base cells as distance(x)).
+  // sdf().sampler() (the same base cells as distance(x)). Only after prepareDistanceBound() (a table as large
+  // as the distance grid, so only for the models that use it).
+  void prepareDistanceBound();
   float distanceBound(const Grid3<float>::Sampler& s, const Vec3& x) const {
     float f;
     const std::size_t i = s.base(x.x(), 0, f), j = s.base(x.y(), 1, f), k = s.base(x.z(), 2, f);
@@ -44,6 +46,7 @@ class ObstacleClearance {
   Grid3<float> sdf_;
   std::vector<std::uint8_t> far_;  // per cell: 1 = no clearance needed anywhere in it
   std::vector<float> cornerMin_;   // per base cell of a sample: its eight corners' smallest value, less rounding
+                                   // (prepareDistanceBound)
   std::size_t nx_ = 0, ny_ = 0;
   // the cell of a point for far_, in float: near a cell's border it may name the neighbour, which changes
   // nothing (a point there is within the far margin of either, and apply leaves a far point where it is)

@@ -105,6 +105,7 @@ class ShapeModel final : public Model {
     boundary_ = sdf;
     addBoxWalls(boundary_, domain_);
     clearance_ = ObstacleClearance(std::move(sdf), static_cast<float>(p_.agentRadius), !obs.empty());
+    if (clearance_.any()) clearance_.prepareDistanceBound();  // eq. 8-9's look-up of who is near an obstacle
     tDistance_ = since(t0);
 
     // eq. 4: F_cur = ∇ × (η p(x / ρ)): lattice cell ρ, potential η (NoiseParams' potential factor is gain · unit / scale)
