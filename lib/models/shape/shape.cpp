@@ -183,6 +183,7 @@ class ShapeModel final : public Model {
     frameAgentSteps_ = static_cast<std::size_t>(in.get<std::uint64_t>());
     cellHint_ = in.get<float>();
     lists_.clear();  // caches of positions the loaded state does not have
+    nearLast_.clear();
     inGridOrder_ = false;
     if (!(cellHint_ >= 0.0f && cellHint_ <= static_cast<float>(p_.rAtt))) throw std::runtime_error("shape checkpoint: bad cell");
     if (g < -1 || g >= static_cast<std::int64_t>(groupStart_.size())) throw std::runtime_error("shape checkpoint: bad group");
@@ -366,6 +367,8 @@ class ShapeModel final : public Model {
       if (reachLast_.size() != n) reachLast_.assign(n, cellHint_);
       lists_.reset(n, listCapacity(K), static_cast<float>(p_.listSkin));
       reach_.resize(n);
+      if (nearLast_.size() != n * K) nearLast_.assign(n * K, NearLists::kNone);
+      nearNext_.resize(n * K);
       // the lists hold last step's sorted positions, which are this step's state indices only while the state
       // is in the order last step wrote it: else (the first step, a resume, a new target) they go
       if (!asLast) lists_.clear();
@@ -397,6 +400,18 @@ class ShapeModel final : public Model {
       if (known) {
         lastReach = reachLast_[from];
         guess = std::min(rAtt, lastReach + 2.0f * static_cast<float>(lists_.lastMove()) * 1.001f + 1e-6f);
+        // tighter: the farthest now of last step's K nearest (K other insects, so the K nearest now are no
+        // farther; the squared distance as gatherClassify computes it, the root with a float slack)
+        const std::uint32_t* prev = nearLast_.data() + std::size_t{from} * K;
+        if (prev[0] != NearLists::kNone) {
+          float far2 = 0.0f;
+          for (std::size_t q = 0; q < K; ++q) {
+            const float* row = rows + kRowFloats * std::size_t{newPos_[prev[q]]};
+            const float dx = row[0] - qx, dy = row[1] - qy, dz = row[2] - qz;
+            far2 = std::max(far2, dx * dx + dy * dy + dz * dz);
+          }
+          guess = std::min(guess, std::sqrt(far2) * (1.0f + 1e-5f) + 1e-7f);
+        }
       } else {
         // no last step here (the first step, a resume, a new target): the K-th distance now, from the grid
         // searching outward (spatial/nearest.hpp)
@@ -470,6 +485,13 @@ class ShapeModel final : public Model {
       // distance
       mk = selectById(ns.nearIdx.data(), mk, K, ids_.data(), ns, far2, lanes);
       reach_[k] = mk == K ? std::sqrt(far2) : rAtt;
+      // their sorted positions, for the next step's search (in slot k: its state index then)
+      std::uint32_t* next = nearNext_.data() + k * K;
+      if (mk == K) {
+        for (std::size_t q = 0; q < K; ++q) next[q] = ns.cj[ns.picked[q]];
+      } else {
+        next[0] = NearLists::kNone;
+      }
       if (rowsZonal) {  // straight from their rows: their sorted positions
         std::uint32_t* js = ns.chosen.data();  // (room for the candidates: gatherClassify)
         for (std::size_t q = 0; q < mk; ++q) js[q] = ns.cj[ns.picked[q]];
@@ -553,6 +575,7 @@ class ShapeModel final : public Model {
       // The cell size is a speed choice only:
       // no sum depends on it (the sums run over the neighbours that count, in id order)
       reach_.swap(reachLast_);
+      nearLast_.swap(nearNext_);
       if (n > 0) {
         const std::size_t stride = std::max<std::size_t>(1, n / 1024), samples = (n + stride - 1) / stride;
         sortScratch_.resize(samples);
@@ -808,6 +831,9 @@ class ShapeModel final : public Model {
   // how many there were, and the K-th one's distance (a search hint only)
   // this step's K-th distance (r_att if fewer) by sorted position, and last step's by state index
   std::vector<float> reach_, reachLast_;
+  // by sorted position: this step's K nearest (sorted positions; kNone first when fewer than K), and by state
+  // index last step's (their farthest now bounds the K-th distance: a search bound only, never checkpointed)
+  std::vector<std::uint32_t> nearNext_, nearLast_;
   std::vector<std::uint32_t> newPos_;     // last step's sorted position (this step's state index) -> this step's
   NearLists lists_;                       // the near lists (near_list.hpp)
   // by sorted position: the ids of the candidates within MDE's reach (this step's positions; in id order)
