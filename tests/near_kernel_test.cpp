@@ -1,13 +1,11 @@
 // The shape model's near-field kernels (lib/models/shape/near_kernel.hpp) and the lanes they are built on
 // (lib/core/lanes.hpp): the vector e^x against std::exp, the same bits on every lane type, and each kernel
-// against the scalar sums of shape.hpp (ShapeConstraintSum, ZonalSum) over the same entries, and selectById
-// (the K nearest in id order) against a plain sort.
+// against the scalar sums of shape.hpp (ShapeConstraintSum, ZonalSum) over the same entries.
 #include <catch2/catch.hpp>
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <numeric>
 #include <random>
 #include <vector>
 
@@ -236,60 +234,4 @@ TEST_CASE("near kernels: classifyCandidates and gatherClassify sort each candida
       }
     }
   }
-}
-
-TEST_CASE("near kernels: selectById keeps the K nearest (ties to the lower id) in id order, the same on every lane set",
-          "[shape][lanes]") {
-  std::mt19937 rng(13);
-  // squared distances from a few values, so that many tie; ids shuffled, some at the top of the 32-bit range
-  std::uniform_int_distribution<int> level(0, 5);
-  std::uniform_real_distribution<float> u(0.0f, 2.0f);
-  int checked = 0;
-  for (const std::size_t m : {0u, 1u, 2u, 7u, 8u, 9u, 10u, 11u, 17u, 33u, 64u, 95u, 96u, 97u, 200u}) {
-    for (const std::size_t K : {1u, 3u, 10u, 16u, 300u}) {
-      for (int trial = 0; trial < 6; ++trial) {
-        // candidate e at sorted position cj[e]; ids by sorted position
-        const std::size_t n = m + 50;
-        std::vector<std::uint32_t> idOf(n);
-        std::iota(idOf.begin(), idOf.end(), 0u);
-        for (std::size_t i = 0; i < std::min<std::size_t>(5, n); ++i) idOf[i] = 0xffffffffu - static_cast<std::uint32_t>(i);
-        std::shuffle(idOf.begin(), idOf.end(), rng);
-        std::vector<std::uint32_t> pos(n);
-        std::iota(pos.begin(), pos.end(), 0u);
-        std::shuffle(pos.begin(), pos.end(), rng);
-        std::vector<float> d2(m);
-        for (float& d : d2) d = trial % 2 == 0 ? 0.25f * static_cast<float>(level(rng)) : u(rng);
-        // the entries: every other candidate index, in a shuffled order
-        std::vector<std::uint32_t> sel;
-        for (std::size_t e = 0; e < m; e += 2) sel.push_back(static_cast<std::uint32_t>(e));
-        std::shuffle(sel.begin(), sel.end(), rng);
-        // the answer by a plain sort: (d2, id), the first K, then by id
-        std::vector<std::uint32_t> want = sel;
-        const auto idAt = [&](std::uint32_t e) { return idOf[pos[e]]; };
-        std::sort(want.begin(), want.end(), [&](std::uint32_t a, std::uint32_t b) {
-          return d2[a] < d2[b] || (d2[a] == d2[b] && idAt(a) < idAt(b));
-        });
-        want.resize(std::min(K, want.size()));
-        float wantFar = 0.0f;
-        for (const std::uint32_t e : want) wantFar = std::max(wantFar, d2[e]);
-        std::sort(want.begin(), want.end(), [&](std::uint32_t a, std::uint32_t b) { return idAt(a) < idAt(b); });
-        for (const LaneSet set : swarmsim_test::laneSetsOfThisCpu()) {
-          INFO("m = " << m << ", K = " << K << ", trial " << trial << ", lane set " << static_cast<int>(set));
-          NearScratch ns;
-          ns.reserveCandidates(m);
-          for (std::size_t e = 0; e < m; ++e) {
-            ns.cd2[e] = d2[e];
-            ns.cj[e] = pos[e];
-          }
-          float far2 = -1.0f;
-          const std::size_t got = selectById(sel.data(), sel.size(), K, idOf.data(), ns, far2, set);
-          REQUIRE(got == want.size());
-          CHECK(std::equal(want.begin(), want.end(), ns.picked.begin()));
-          CHECK(far2 == wantFar);
-          ++checked;
-        }
-      }
-    }
-  }
-  CHECK(checked >= 15 * 5 * 6);
 }

@@ -1,6 +1,6 @@
 // The shape model's neighbour lists (lib/models/shape/near_list.hpp): sortById puts sorted positions in
 // ascending order of their ids on every lane set (the rank counts of AVX2 for short lists, std::sort else),
-// and a list built from the grid holds exactly the points within its radius, whatever the lanes.
+// and a list built from the grid holds exactly the points within its radius, in id order, whatever the lanes.
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -45,7 +45,7 @@ TEST_CASE("near lists: sortById orders positions by id on every lane set, at eve
   CHECK(wrong == 0);
 }
 
-TEST_CASE("near lists: a built list holds the points within its radius, on every lane set",
+TEST_CASE("near lists: a built list holds the points within its radius, in id order, on every lane set",
           "[shape][near_list]") {
   std::mt19937 rng(11);
   std::uniform_real_distribution<float> u(-4.0f, 4.0f);
@@ -58,6 +58,10 @@ TEST_CASE("near lists: a built list holds the points within its radius, on every
   }
   UniformGrid grid;
   grid.build(x.data(), y.data(), z.data(), n, 0.7f);
+  // ids by sorted position: a shuffle
+  std::vector<std::uint32_t> idOf(n);
+  std::iota(idOf.begin(), idOf.end(), 0u);
+  std::shuffle(idOf.begin(), idOf.end(), rng);
   const float* sx = grid.sortedX().data();
   const float* sy = grid.sortedY().data();
   const float* sz = grid.sortedZ().data();
@@ -66,19 +70,19 @@ TEST_CASE("near lists: a built list holds the points within its radius, on every
     NearLists nl;
     nl.reset(n, 200, 0.3f);
     std::vector<std::uint32_t> scratch;
+    std::vector<std::uint64_t> keys;
     for (std::uint32_t k = 0; k < n; k += 7) {
       for (const float r : {0.3f, 0.9f, 1.6f}) {  // a few, some dozens, more than the 200 of a slot
         std::size_t m = 0;
-        const std::uint32_t* built = nl.build(k, r, grid, scratch, m, lanes);
-        std::vector<std::uint32_t> got(built, built + m);  // in no particular order: as a set
-        std::sort(got.begin(), got.end());
+        const std::uint32_t* got = nl.build(k, r, grid, idOf.data(), scratch, keys, m, lanes);
         std::vector<std::uint32_t> want;
         for (std::uint32_t j = 0; j < n; ++j) {
           const float dx = sx[j] - sx[k], dy = sy[j] - sy[k], dz = sz[j] - sz[k];
           if (j != k && dx * dx + dy * dy + dz * dz <= r * r) want.push_back(j);
         }
+        std::sort(want.begin(), want.end(), [&](std::uint32_t a, std::uint32_t b) { return idOf[a] < idOf[b]; });
         ++lists;
-        wrong += got == want ? 0 : 1;
+        wrong += std::vector<std::uint32_t>(got, got + m) == want ? 0 : 1;
       }
     }
   }

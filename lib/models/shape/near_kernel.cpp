@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <stdexcept>
 
 #include "core/lanes.hpp"
@@ -266,8 +265,7 @@ void NearScratch::growCandidates(std::size_t n) {
   const std::size_t cap = padded(n + n / 2 + 32);
   reserve(cap);
   for (auto* v : {&cx, &cy, &cz, &cd2}) v->resize(cap);
-  for (auto* v : {&cj, &conIdx, &nearIdx, &mdeIdx, &chosen, &picked, &keptE}) v->resize(cap);
-  for (auto* v : {&selD, &selI, &keptI}) v->resize(cap);
+  for (auto* v : {&cj, &conIdx, &nearIdx, &mdeIdx, &chosen}) v->resize(cap);
   if (keys.size() < cap) keys.resize(cap);
   room_ = cap;
 }
@@ -336,113 +334,6 @@ void gatherClassify(std::size_t m, const std::uint32_t* cand, const float* rows,
     s.cz[e] = rows[kRowFloats * std::size_t{j} + 2];
   }
   classifyCandidates(m, q, threshold, near2, reach2, s, lanes, counts);
-}
-
-namespace {
-
-// the bits of a squared distance (>= 0): their order as signed integers is the floats' order
-inline std::int32_t distanceBits(float d2) {
-  std::int32_t b;
-  std::memcpy(&b, &d2, sizeof b);
-  return b;
-}
-// an id in signed order (unsigned order by signed compares)
-inline std::int32_t idBits(std::uint32_t id) { return static_cast<std::int32_t>(id ^ 0x80000000u); }
-constexpr std::int32_t kPadBits = 0x7fffffff;  // above every distance's and id's bits
-
-#if SWARMSIM_X86_LANES
-// selectById with rank counts, eight at a time and without a branch on the data: entry c is kept when fewer
-// than K entries are below it in (distance, id) order, and goes to its rank among the kept in id order.
-// D and I hold the m entries' bits, padded to whole lanes with kPadBits.
-SWARMSIM_AVX2 std::size_t selectRanksAvx2(const std::uint32_t* sel, std::size_t m, std::size_t K,
-                                          const std::int32_t* D, const std::int32_t* I, std::int32_t* keptI,
-                                          std::uint32_t* keptE, std::uint32_t* out) {
-  std::size_t nk = 0;
-  if (m <= K) {
-    for (std::size_t c = 0; c < m; ++c) {
-      keptI[c] = I[c];
-      keptE[c] = sel[c];
-    }
-    nk = m;
-  } else {
-    for (std::size_t c = 0; c < m; ++c) {
-      const __m256i dc = _mm256_set1_epi32(D[c]), ic = _mm256_set1_epi32(I[c]);
-      unsigned rank = 0;
-      for (std::size_t f = 0; f < m; f += kLanes) {
-        const __m256i d = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(D + f));
-        const __m256i i = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(I + f));
-        const __m256i below =
-            _mm256_or_si256(_mm256_cmpgt_epi32(dc, d), _mm256_and_si256(_mm256_cmpeq_epi32(dc, d), _mm256_cmpgt_epi32(ic, i)));
-        rank += static_cast<unsigned>(__builtin_popcount(static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(below)))));
-      }
-      keptI[nk] = I[c];
-      keptE[nk] = sel[c];
-      nk += static_cast<std::size_t>(rank < K);
-    }
-  }
-  for (std::size_t c = nk; c % kLanes != 0; ++c) keptI[c] = kPadBits;
-  for (std::size_t c = 0; c < nk; ++c) {
-    const __m256i ic = _mm256_set1_epi32(keptI[c]);
-    unsigned rank = 0;
-    for (std::size_t f = 0; f < nk; f += kLanes) {
-      const __m256i i = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(keptI + f));
-      rank += static_cast<unsigned>(
-          __builtin_popcount(static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(ic, i))))));
-    }
-    out[rank] = keptE[c];
-  }
-  return nk;
-}
-#endif
-constexpr std::size_t kRankSelectMax = 96;  // beyond: the scalar selection (rank counts grow as m squared)
-
-}  // namespace
-
-std::size_t selectById(const std::uint32_t* sel, std::size_t m, std::size_t K, const std::uint32_t* idOf,
-                       NearScratch& s, float& far2, LaneSet lanes) {
-  far2 = 0.0f;
-  std::uint32_t* out = s.picked.data();
-  if (m == 0 || K == 0) return 0;
-  if (m == 1) {
-    out[0] = sel[0];
-    far2 = s.cd2[sel[0]];
-    return 1;
-  }
-  std::int32_t* D = s.selD.data();
-  std::int32_t* I = s.selI.data();
-  std::int32_t dMax = 0;
-  for (std::size_t c = 0; c < m; ++c) {
-    D[c] = distanceBits(s.cd2[sel[c]]);
-    I[c] = idBits(idOf[s.cj[sel[c]]]);
-  }
-  for (std::size_t c = m; c % kLanes != 0; ++c) D[c] = I[c] = kPadBits;
-  std::size_t nk = 0;
-#if SWARMSIM_X86_LANES
-  if ((lanes == LaneSet::kAvx2 || lanes == LaneSet::kAvx512) && m <= kRankSelectMax) {
-    nk = selectRanksAvx2(sel, m, K, D, I, s.keptI.data(), s.keptE.data(), out);
-    for (std::size_t q = 0; q < nk; ++q) dMax = std::max(dMax, distanceBits(s.cd2[out[q]]));
-    std::memcpy(&far2, &dMax, sizeof far2);
-    return nk;
-  }
-#else
-  (void)lanes;
-#endif
-  // entry indices c: the K smallest in (distance, id) order, then in id order
-  std::uint32_t* c = s.keptE.data();
-  for (std::size_t q = 0; q < m; ++q) c[q] = static_cast<std::uint32_t>(q);
-  nk = std::min(m, K);
-  if (m > K) {
-    std::nth_element(c, c + K, c + m, [&](std::uint32_t a, std::uint32_t b) {
-      return D[a] < D[b] || (D[a] == D[b] && I[a] < I[b]);
-    });
-  }
-  std::sort(c, c + nk, [&](std::uint32_t a, std::uint32_t b) { return I[a] < I[b]; });
-  for (std::size_t q = 0; q < nk; ++q) {
-    out[q] = sel[c[q]];
-    dMax = std::max(dMax, D[c[q]]);
-  }
-  std::memcpy(&far2, &dMax, sizeof far2);
-  return nk;
 }
 
 namespace {

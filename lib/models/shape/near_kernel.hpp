@@ -27,9 +27,6 @@ struct alignas(64) NearScratch {
   std::vector<std::uint32_t> cj, ids;
   std::vector<std::uint32_t> conIdx, nearIdx, mdeIdx;  // classifyCandidates' output
   std::vector<std::uint32_t> chosen;                   // F_int's neighbours (sorted positions), for zonalForceRows
-  std::vector<std::uint32_t> picked;                   // selectById's output (candidate indices)
-  std::vector<std::int32_t> selD, selI, keptI;         // selectById's scratch
-  std::vector<std::uint32_t> keptE;
   std::vector<std::uint64_t> sortKeys;                 // sortById's (near_list.hpp)
   std::size_t rebuilds = 0;  // near lists this thread built from the grid (a statistic: one count per thread,
                              // so that no cache line is shared between the cores)
@@ -80,15 +77,6 @@ class AlignedFloats {
 // `far` holds a point far from everything (the padding of the last lanes)
 void gatherClassify(std::size_t m, const std::uint32_t* cand, const float* rows, std::uint32_t far, const Vec3& q,
                     float threshold, float near2, float reach2, NearScratch& s, LaneSet lanes, std::size_t counts[3]);
-
-// Of the candidates sel[0, m) (indices e into scratch.cd2 and scratch.cj as gatherClassify left them, distinct),
-// the min(m, K) with the smallest (squared distance, id), ties to the lower id, written to scratch.picked in
-// ascending id order; `idOf` maps a sorted position to its id (distinct). Returns how many, and in far2 the
-// largest squared distance among them (0 for none). K >= m: every one, ordered by id. Needs the scratch's
-// room for m candidates (gatherClassify's of at least m). The near lists keep no
-// order, so this is what puts every sum's entries in id order. Every lane set gives the same.
-std::size_t selectById(const std::uint32_t* sel, std::size_t m, std::size_t K, const std::uint32_t* idOf,
-                       NearScratch& s, float& far2, LaneSet lanes);
 
 // F_con's sum (eq. 5) over scratch.dx/dy/dz/d2[0, m): Σ d̂ exp(−M² inv2s2) over the entries with 0 < |d| and
 // Manhattan length M < threshold, d = p_j − q (the caller negates and scales it), and how many there were.

@@ -193,8 +193,9 @@ const std::uint32_t* NearLists::keep(std::uint32_t from, std::uint32_t k, const 
   return list;
 }
 
-const std::uint32_t* NearLists::build(std::uint32_t k, float r, const UniformGrid& grid,
-                                      std::vector<std::uint32_t>& scratch, std::size_t& m, LaneSet lanes) {
+const std::uint32_t* NearLists::build(std::uint32_t k, float r, const UniformGrid& grid, const std::uint32_t* idOf,
+                                      std::vector<std::uint32_t>& scratch, std::vector<std::uint64_t>& keys,
+                                      std::size_t& m, LaneSet lanes) {
   const float qx = grid.sortedX()[k], qy = grid.sortedY()[k], qz = grid.sortedZ()[k];
   scratch.clear();
   if (grid.size() > 0) {
@@ -215,6 +216,7 @@ const std::uint32_t* NearLists::build(std::uint32_t k, float r, const UniformGri
     scanLanes<ScalarLanes>(grid, k, qx, qy, qz, r, scratch);
 #endif
   }
+  sortById(scratch, idOf, keys, lanes);
   m = scratch.size();
   Slots& out = inPlace_ ? last_ : next_;
   if (m > capacity_) {

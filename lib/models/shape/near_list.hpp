@@ -3,8 +3,8 @@
 // model's near-field sums (F_con, F_int over the K nearest, MDE).
 //
 // Insect i's list holds every other insect that was within its radius R_i
-// when the list was built, in no particular order (the grid's scan), each as
-// its sorted position in this step's grid: a kept list is translated every step
+// when the list was built, in ascending order of their ids, each as its
+// sorted position in this step's grid: a kept list is translated every step
 // from last step's positions (the state's order) to this step's, which lie
 // near the insect's own, where an id would need a look-up anywhere in an
 // array indexed by id. A step asks for every
@@ -16,8 +16,7 @@
 // the grid's candidates serve that step only.
 //
 // The lists are a cache: the callers use only the candidates within the radius
-// they need, put in id order (selectById, near_kernel.hpp), so what they
-// compute depends on the positions alone,
+// they need, in id order, so what they compute depends on the positions alone,
 // never on when a list was built (a resumed run, which starts without lists,
 // equals an uninterrupted one; any thread count gives the same bits).
 #include <cstddef>
@@ -63,18 +62,20 @@ class NearLists {
                               (1.0 + 1e-5));
   }
   // keep the list of slot `from` for sorted insect k: its sorted positions now (newPos maps last step's
-  // sorted position, the state index, to this step's), the insect itself left out
+  // sorted position, the state index, to this step's), by ascending id, the insect itself left out
   const std::uint32_t* keep(std::uint32_t from, std::uint32_t k, const std::uint32_t* newPos, std::size_t& m);
-  // a new list for sorted insect k: every other grid point within r (its coverage now), in the grid's
-  // order; kept when it fits (`scratch` holds it otherwise). `lanes`: the instruction set to scan with
-  // (laneSet(), core/lanes.hpp; every one gives the same list)
-  const std::uint32_t* build(std::uint32_t k, float r, const UniformGrid& grid, std::vector<std::uint32_t>& scratch,
-                             std::size_t& m, LaneSet lanes);
+  // a new list for sorted insect k: every other grid point within r (its coverage now), by ascending id;
+  // kept when it fits (`scratch` holds it otherwise; `keys` is scratch for the sort). `idOf` maps a sorted
+  // position to its id; `lanes`: the instruction set to scan with (laneSet(), core/lanes.hpp; every one
+  // gives the same list)
+  const std::uint32_t* build(std::uint32_t k, float r, const UniformGrid& grid, const std::uint32_t* idOf,
+                             std::vector<std::uint32_t>& scratch, std::vector<std::uint64_t>& keys, std::size_t& m,
+                             LaneSet lanes);
   // the largest move of last step (m)
   double lastMove() const { return lastMove_; }
   float skin() const { return skin_; }
 
-  // sorted insect k's list as keep() or build() left it this step (sorted positions), or
+  // sorted insect k's list as keep() or build() left it this step (sorted positions by ascending id), or
   // nullptr when it has none (it did not fit)
   const std::uint32_t* stored(std::uint32_t k, std::size_t& m) const {
     const Slots& out = inPlace_ ? last_ : next_;

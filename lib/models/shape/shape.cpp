@@ -48,6 +48,37 @@ std::uint64_t groupSeed(std::uint64_t seed, std::size_t group) {
   return z ^ (z >> 31);
 }
 
+// keeps the K smallest of keys[0, m) in their given order; returns how many are kept
+std::size_t keepSmallest(std::uint64_t* keys, std::size_t m, std::size_t K) {
+  if (m <= K) return m;
+  if (m - K <= 8) {
+    // a few too many (the usual case): the (m - K)-th largest key, one pass per place (each the largest
+    // below the last; the keys differ in their low half, and the one found is above the smallest, so above
+    // 0), then one pass that keeps the keys below it. No branch on the data, and each pass's chain is
+    // through a register only.
+    std::uint64_t cut = ~std::uint64_t{0};
+    for (std::size_t d = m - K; d > 0; --d) {
+      std::uint64_t best = 0;
+      for (std::size_t e = 0; e < m; ++e) {
+        const std::uint64_t x = keys[e];
+        best = x < cut && x > best ? x : best;
+      }
+      cut = best;
+    }
+    std::size_t out = 0;
+    for (std::size_t e = 0; e < m; ++e) {
+      const std::uint64_t x = keys[e];
+      keys[out] = x;
+      out += static_cast<std::size_t>(x < cut);
+    }
+    return out;
+  }
+  // many: order by key, keep K, and put them back in their given order (the low half of a key)
+  std::nth_element(keys, keys + K, keys + m);
+  std::sort(keys, keys + K, [](std::uint64_t x, std::uint64_t y) { return keyIndex(x) < keyIndex(y); });
+  return K;
+}
+
 // room per insect in the near lists (NearLists): about the candidates within (1 + skin) times the K-th
 // distance in three dimensions, with F_con's and MDE's few
 std::size_t listCapacity(std::size_t K) { return 4 * K + 16; }
@@ -433,7 +464,7 @@ class ShapeModel final : public Model {
       } else {
         cover = std::min(rAtt, (1.0f + lists_.skin()) * std::max(need, lastReach));
         cover = std::max({cover, kh, mdReach});
-        cand = lists_.build(static_cast<std::uint32_t>(k), cover, grid_, ns.ids, m, lanes);
+        cand = lists_.build(static_cast<std::uint32_t>(k), cover, grid_, ids_.data(), ns.ids, ns.sortKeys, m, lanes);
         ++ns.rebuilds;
       }
       std::size_t counts[3];
@@ -456,14 +487,13 @@ class ShapeModel final : public Model {
         if (mk >= K || cover >= rAtt) break;
         // fewer than K within the coverage, which is short of r_att: a wider list (rare)
         cover = std::min(rAtt, 1.5f * cover);
-        cand = lists_.build(static_cast<std::uint32_t>(k), cover, grid_, ns.ids, m, lanes);
+        cand = lists_.build(static_cast<std::uint32_t>(k), cover, grid_, ids_.data(), ns.ids, ns.sortKeys, m, lanes);
         ++ns.rebuilds;
       }
-      float far2 = 0.0f;
       if (shaped) {  // F_con over its entries, packed in id order
-        const std::size_t mc = selectById(ns.conIdx.data(), counts[0], counts[0], ids_.data(), ns, far2, lanes);
+        const std::size_t mc = counts[0];
         for (std::size_t c = 0; c < mc; ++c) {
-          const std::uint32_t e = ns.picked[c];
+          const std::uint32_t e = ns.conIdx[c];
           ns.dx[c] = ns.cx[e];
           ns.dy[c] = ns.cy[e];
           ns.dz[c] = ns.cz[e];
@@ -474,34 +504,42 @@ class ShapeModel final : public Model {
         constraintSumScratch(mc, kh, inv2s2, ns, avx, sum, count);
         fCon = count > 0 ? Vec3(sum * (-wCon / static_cast<float>(count))) : Vec3::Zero();
       }
-      // MDE's candidates (within its reach now), kept for the MDE pass in id order when they fit its slot
+      std::uint64_t* keys = ns.keys.data();
+      for (std::size_t c = 0; c < mk; ++c) {
+        const std::uint32_t e = ns.nearIdx[c];
+        keys[c] = neighbourKey(ns.cd2[e], e);  // ties: the lower id
+      }
+      // MDE's candidates (within its reach now), kept for the MDE pass when they fit its slot
       const std::size_t mm = counts[2];
       mdeCount_[k] = mm <= kMdeRoom ? static_cast<std::uint8_t>(mm) : kMdeNone;
-      if (mm > 0 && mm <= kMdeRoom) {
-        selectById(ns.mdeIdx.data(), mm, mm, ids_.data(), ns, far2, lanes);
-        for (std::size_t c = 0; c < mm; ++c) mdeNear_[k * kMdeRoom + c] = ns.cj[ns.picked[c]];
+      for (std::size_t c = 0; c < std::min(mm, kMdeRoom); ++c) mdeNear_[k * kMdeRoom + c] = cand[ns.mdeIdx[c]];
+      // F_int over the K nearest within r_att, in id order
+      mk = keepSmallest(keys, mk, K);
+      {
+        std::uint32_t* next = nearNext_.data() + k * K;
+        if (mk == K) {
+          for (std::size_t q = 0; q < K; ++q) next[q] = ns.cj[keyIndex(keys[q])];
+        } else {
+          next[0] = NearLists::kNone;
+        }
       }
-      // F_int over the K nearest within r_att (ties: the lower id), in id order, and the farthest's squared
-      // distance
-      mk = selectById(ns.nearIdx.data(), mk, K, ids_.data(), ns, far2, lanes);
-      reach_[k] = mk == K ? std::sqrt(far2) : rAtt;
-      // their sorted positions, for the next step's search (in slot k: its state index then)
-      std::uint32_t* next = nearNext_.data() + k * K;
-      if (mk == K) {
-        for (std::size_t q = 0; q < K; ++q) next[q] = ns.cj[ns.picked[q]];
-      } else {
-        next[0] = NearLists::kNone;
-      }
-      if (rowsZonal) {  // straight from their rows: their sorted positions
+      if (rowsZonal) {  // straight from their rows: their sorted positions, and the farthest (the largest key)
+        std::uint64_t top = 0;
         std::uint32_t* js = ns.chosen.data();  // (room for the candidates: gatherClassify)
-        for (std::size_t q = 0; q < mk; ++q) js[q] = ns.cj[ns.picked[q]];
+        for (std::size_t q = 0; q < mk; ++q) {
+          js[q] = ns.cj[keyIndex(keys[q])];
+          top = std::max(top, keys[q]);
+        }
+        reach_[k] = mk == K ? std::sqrt(keyDistance2(top)) : rAtt;
         return zonalForceRows(mk, js, rows, static_cast<std::uint32_t>(n), Vec3(qx, qy, qz),
                               Vec3(vx_[k], vy_[k], vz_[k]), zoneLanes);
       }
+      float far2 = 0.0f;
       const float vkx = vx_[k], vky = vy_[k], vkz = vz_[k];
       for (std::size_t q = 0; q < mk; ++q) {
-        const std::uint32_t e = ns.picked[q];
+        const std::uint32_t e = keyIndex(keys[q]);
         const float* vj = rows + kRowFloats * std::size_t{ns.cj[e]} + 4;  // in the line gatherClassify loaded
+        far2 = std::max(far2, ns.cd2[e]);
         ns.dx[q] = ns.cx[e];
         ns.dy[q] = ns.cy[e];
         ns.dz[q] = ns.cz[e];
@@ -510,6 +548,7 @@ class ShapeModel final : public Model {
         ns.uy[q] = vj[1] - vky;
         ns.uz[q] = vj[2] - vkz;
       }
+      reach_[k] = mk == K ? std::sqrt(far2) : rAtt;
       return zonalForce(mk, zoneLanes, ns, avx);
     };
 
@@ -611,21 +650,16 @@ class ShapeModel final : public Model {
         x += Vec3::Zero();
         return false;
       }
-      const std::uint32_t* cand = mdeNear_.data() + k * kMdeRoom;  // (in id order)
-      if (m == kMdeNone) {  // more than its slot holds: those of the near list that count, or else the grid's, by id
+      const std::uint32_t* cand = mdeNear_.data() + k * kMdeRoom;
+      if (m == kMdeNone) cand = lists_.stored(static_cast<std::uint32_t>(k), m);
+      if (!cand) {  // no list (too many candidates to keep): the grid's, those that count, by id
         std::vector<std::uint32_t>& found = ns.ids;
         found.clear();
-        if (const std::uint32_t* list = lists_.stored(static_cast<std::uint32_t>(k), m)) {
-          for (std::size_t e = 0; e < m; ++e) {
-            if (counts(list[e])) found.push_back(list[e]);
+        grid_.forEachRun(sx[k], sy[k], sz[k], mdReach, [&](std::uint32_t b, std::uint32_t e) {
+          for (std::uint32_t j = b; j < e; ++j) {
+            if (j != k && counts(j)) found.push_back(j);
           }
-        } else {
-          grid_.forEachRun(sx[k], sy[k], sz[k], mdReach, [&](std::uint32_t b, std::uint32_t e) {
-            for (std::uint32_t j = b; j < e; ++j) {
-              if (j != k && counts(j)) found.push_back(j);
-            }
-          });
-        }
+        });
         sortById(found, ids_.data(), ns.sortKeys, lanes);
         cand = found.data();
         m = found.size();
