@@ -214,7 +214,7 @@ class ShapeModel final : public Model {
     frameAgentSteps_ = static_cast<std::size_t>(in.get<std::uint64_t>());
     cellHint_ = in.get<float>();
     lists_.clear();  // caches of positions the loaded state does not have
-    nearLast_.clear();
+    nearKept_ = false;
     inGridOrder_ = false;
     if (!(cellHint_ >= 0.0f && cellHint_ <= static_cast<float>(p_.rAtt))) throw std::runtime_error("shape checkpoint: bad cell");
     if (g < -1 || g >= static_cast<std::int64_t>(groupStart_.size())) throw std::runtime_error("shape checkpoint: bad group");
@@ -398,13 +398,20 @@ class ShapeModel final : public Model {
       if (reachLast_.size() != n) reachLast_.assign(n, cellHint_);
       lists_.reset(n, listCapacity(K), static_cast<float>(p_.listSkin));
       reach_.resize(n);
-      if (nearLast_.size() != n * K) nearLast_.assign(n * K, NearLists::kNone);
+      if (nearLast_.size() != n * K) {
+        nearLast_.assign(n * K, NearLists::kNone);
+        nearKept_ = false;
+      }
       nearNext_.resize(n * K);
       // the lists hold last step's sorted positions, which are this step's state indices only while the state
       // is in the order last step wrote it: else (the first step, a resume, a new target) they go
       if (!asLast) lists_.clear();
       lists_.beginStep(cellsKept && asLast);  // the state in place: each list stays in its slot
     }
+    // keep this step's K nearest of each insect for the next step's bound where the insects move fast for their
+    // spacing (two of last step's largest moves beyond a tenth of the cell, about the K-th distance): there the
+    // bound from last step's K-th distance alone takes in many more than K, elsewhere the K look-ups cost more
+    const bool keepNear = nearest && 2.0 * lists_.lastMove() > 0.1 * static_cast<double>(cellHint_);
     const ZoneLanes zoneLanes = {zones.rRep2, zones.rAli2, zones.rAtt2, {zones.w[0], zones.w[1], zones.w[2]}};
     const LaneSet lanes = laneSet();
     const bool avx = lanes != LaneSet::kSse;  // for the kernels without an AVX2 variant
@@ -431,10 +438,11 @@ class ShapeModel final : public Model {
       if (known) {
         lastReach = reachLast_[from];
         guess = std::min(rAtt, lastReach + 2.0f * static_cast<float>(lists_.lastMove()) * 1.001f + 1e-6f);
-        // tighter: the farthest now of last step's K nearest (K other insects, so the K nearest now are no
-        // farther; the squared distance as gatherClassify computes it, the root with a float slack)
+        // tighter, where last step kept its K nearest: the farthest of them now (K other insects, so the K
+        // nearest now are no farther; the squared distance as gatherClassify computes it, the root with a
+        // float slack)
         const std::uint32_t* prev = nearLast_.data() + std::size_t{from} * K;
-        if (prev[0] != NearLists::kNone) {
+        if (nearKept_ && prev[0] != NearLists::kNone) {
           float far2 = 0.0f;
           for (std::size_t q = 0; q < K; ++q) {
             const float* row = rows + kRowFloats * std::size_t{newPos_[prev[q]]};
@@ -515,7 +523,7 @@ class ShapeModel final : public Model {
       for (std::size_t c = 0; c < std::min(mm, kMdeRoom); ++c) mdeNear_[k * kMdeRoom + c] = cand[ns.mdeIdx[c]];
       // F_int over the K nearest within r_att, in id order
       mk = keepSmallest(keys, mk, K);
-      {
+      if (keepNear) {  // their sorted positions, for the next step's bound (in slot k: its state index then)
         std::uint32_t* next = nearNext_.data() + k * K;
         if (mk == K) {
           for (std::size_t q = 0; q < K; ++q) next[q] = ns.cj[keyIndex(keys[q])];
@@ -615,6 +623,7 @@ class ShapeModel final : public Model {
       // no sum depends on it (the sums run over the neighbours that count, in id order)
       reach_.swap(reachLast_);
       nearLast_.swap(nearNext_);
+      nearKept_ = keepNear;
       if (n > 0) {
         const std::size_t stride = std::max<std::size_t>(1, n / 1024), samples = (n + stride - 1) / stride;
         sortScratch_.resize(samples);
@@ -868,6 +877,7 @@ class ShapeModel final : public Model {
   // by sorted position: this step's K nearest (sorted positions; kNone first when fewer than K), and by state
   // index last step's (their farthest now bounds the K-th distance: a search bound only, never checkpointed)
   std::vector<std::uint32_t> nearNext_, nearLast_;
+  bool nearKept_ = false;  // whether last step kept them (nearLast_ holds them)
   std::vector<std::uint32_t> newPos_;     // last step's sorted position (this step's state index) -> this step's
   NearLists lists_;                       // the near lists (near_list.hpp)
   // by sorted position: the ids of the candidates within MDE's reach (this step's positions; in id order)
