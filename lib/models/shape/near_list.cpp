@@ -102,6 +102,54 @@ SWARMSIM_AVX2 __attribute__((flatten)) void scanAvx2(const UniformGrid& grid, st
   }
   out.resize(n);
 }
+// scanAvx2 on sixteen lanes: the hits stored by a compress, each row's last lanes by a masked load. The same
+// points in the same order.
+SWARMSIM_AVX512 __attribute__((flatten)) void scanAvx512(const UniformGrid& grid, std::uint32_t k, float qx, float qy,
+                                                         float qz, float r, std::vector<std::uint32_t>& out) {
+  int lo[3], hi[3];
+  grid.cellRange(qx, qy, qz, r, lo, hi);
+  const auto nx = static_cast<std::size_t>(grid.dim(0)), ny = static_cast<std::size_t>(grid.dim(1));
+  const auto rowStart = [&](int cz, int cy) {
+    return (static_cast<std::size_t>(cz) * ny + static_cast<std::size_t>(cy)) * nx;
+  };
+  std::size_t room = 16;
+  for (int cz = lo[2]; cz <= hi[2]; ++cz) {
+    for (int cy = lo[1]; cy <= hi[1]; ++cy) {
+      const std::size_t row = rowStart(cz, cy);
+      room += grid.cellEnd(row + static_cast<std::size_t>(hi[0])) - grid.cellBegin(row + static_cast<std::size_t>(lo[0]));
+    }
+  }
+  out.resize(room);
+  std::uint32_t* dst = out.data();
+  std::size_t n = 0;
+  const float* sx = grid.sortedX().data();
+  const float* sy = grid.sortedY().data();
+  const float* sz = grid.sortedZ().data();
+  const __m512 vx = _mm512_set1_ps(qx), vy = _mm512_set1_ps(qy), vz = _mm512_set1_ps(qz), vr2 = _mm512_set1_ps(r * r);
+  const __m512i laneIndex = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  for (int cz = lo[2]; cz <= hi[2]; ++cz) {
+    for (int cy = lo[1]; cy <= hi[1]; ++cy) {
+      const std::size_t row = rowStart(cz, cy);
+      std::uint32_t j = grid.cellBegin(row + static_cast<std::size_t>(lo[0]));
+      const std::uint32_t end = grid.cellEnd(row + static_cast<std::size_t>(hi[0]));
+      for (; j < end; j += 16) {
+        const __mmask16 valid = end - j >= 16 ? static_cast<__mmask16>(0xffff)
+                                              : static_cast<__mmask16>((1u << (end - j)) - 1u);
+        const __m512 dx = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, sx + j), vx);
+        const __m512 dy = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, sy + j), vy);
+        const __m512 dz = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, sz + j), vz);
+        // the same operations in the same order as scanAvx2 (no fused multiply-add)
+        const __m512 d2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)), _mm512_mul_ps(dz, dz));
+        unsigned hit = static_cast<unsigned>(_mm512_mask_cmp_ps_mask(valid, d2, vr2, _CMP_LE_OQ));
+        if (k - j < 16u) hit &= ~(1u << (k - j));  // not the insect itself
+        const __m512i lanePos = _mm512_add_epi32(_mm512_set1_epi32(static_cast<int>(j)), laneIndex);
+        _mm512_mask_compressstoreu_epi32(dst + n, static_cast<__mmask16>(hit), lanePos);
+        n += static_cast<std::size_t>(__builtin_popcount(hit));
+      }
+    }
+  }
+  out.resize(n);
+}
 // sortById of at most kRankSortMax entries without a branch per comparison: each entry's rank is how many
 // ids are smaller (ids are distinct), counted eight at a time, and the entry goes to its rank. ids[] holds the
 // m ids, padded to whole lanes with the largest id (never smaller than another); out gets the m positions.
@@ -116,6 +164,19 @@ SWARMSIM_AVX2 void rankSortAvx2(const std::uint32_t* ids, const std::uint32_t* p
       const __m256i other = _mm256_xor_si256(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(ids + j)), flip);
       rank += static_cast<std::size_t>(
           __builtin_popcount(static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(key, other))))));
+    }
+    out[rank] = pos[i];
+  }
+}
+// rankSortAvx2 on sixteen lanes (ids padded to whole sixteens)
+SWARMSIM_AVX512 void rankSortAvx512(const std::uint32_t* ids, const std::uint32_t* pos, std::size_t m,
+                                    std::uint32_t* out) {
+  for (std::size_t i = 0; i < m; ++i) {
+    const __m512i key = _mm512_set1_epi32(static_cast<int>(ids[i]));
+    std::size_t rank = 0;
+    for (std::size_t j = 0; j < m; j += 16) {
+      const __m512i other = _mm512_loadu_si512(ids + j);
+      rank += static_cast<std::size_t>(__builtin_popcount(static_cast<unsigned>(_mm512_cmpgt_epu32_mask(key, other))));
     }
     out[rank] = pos[i];
   }
@@ -138,13 +199,17 @@ void sortById(std::vector<std::uint32_t>& pos, const std::uint32_t* idOf, std::v
   const std::size_t m = pos.size();
   if ((lanes == LaneSet::kAvx2 || lanes == LaneSet::kAvx512) && m <= kRankSortMax) {
     // the ids, padded, and a copy of the positions
-    alignas(32) std::uint32_t ids[kRankSortMax], from[kRankSortMax];
+    alignas(64) std::uint32_t ids[kRankSortMax + 16], from[kRankSortMax];
     for (std::size_t e = 0; e < m; ++e) {
       ids[e] = idOf[pos[e]];
       from[e] = pos[e];
     }
-    for (std::size_t e = m; e % 8 != 0; ++e) ids[e] = 0xffffffffu;
-    rankSortAvx2(ids, from, m, pos.data());
+    for (std::size_t e = m; e % 16 != 0; ++e) ids[e] = 0xffffffffu;
+    if (lanes == LaneSet::kAvx512) {
+      rankSortAvx512(ids, from, m, pos.data());
+    } else {
+      rankSortAvx2(ids, from, m, pos.data());
+    }
     return;
   }
 #else
@@ -201,8 +266,10 @@ const std::uint32_t* NearLists::build(std::uint32_t k, float r, const UniformGri
   if (grid.size() > 0) {
 #if SWARMSIM_X86_LANES
     switch (lanes) {
-      case LaneSet::kAvx2:
       case LaneSet::kAvx512:
+        scanAvx512(grid, k, qx, qy, qz, r, scratch);
+        break;
+      case LaneSet::kAvx2:
         scanAvx2(grid, k, qx, qy, qz, r, scratch);
         break;
       case LaneSet::kAvx:
