@@ -102,7 +102,7 @@ SWARMSIM_AVX2 __attribute__((flatten)) void scanAvx2(const UniformGrid& grid, st
   }
   out.resize(n);
 }
-// scanAvx2 on sixteen lanes: the hits stored by a compress, each row's last lanes by a masked load. The same
+// scanAvx2 on sixteen lanes: the hits packed by a compress, each row's last lanes by a masked load. The same
 // points in the same order.
 SWARMSIM_AVX512 __attribute__((flatten)) void scanAvx512(const UniformGrid& grid, std::uint32_t k, float qx, float qy,
                                                          float qz, float r, std::vector<std::uint32_t>& out) {
@@ -143,7 +143,8 @@ SWARMSIM_AVX512 __attribute__((flatten)) void scanAvx512(const UniformGrid& grid
         unsigned hit = static_cast<unsigned>(_mm512_mask_cmp_ps_mask(valid, d2, vr2, _CMP_LE_OQ));
         if (k - j < 16u) hit &= ~(1u << (k - j));  // not the insect itself
         const __m512i lanePos = _mm512_add_epi32(_mm512_set1_epi32(static_cast<int>(j)), laneIndex);
-        _mm512_mask_compressstoreu_epi32(dst + n, static_cast<__mmask16>(hit), lanePos);
+        // compressed in a register and stored whole (a compressing store to memory is slow on some CPUs)
+        _mm512_storeu_si512(dst + n, _mm512_maskz_compress_epi32(static_cast<__mmask16>(hit), lanePos));
         n += static_cast<std::size_t>(__builtin_popcount(hit));
       }
     }
