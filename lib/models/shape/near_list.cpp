@@ -46,7 +46,7 @@ inline void scanLanes(const UniformGrid& grid, std::uint32_t k, float qx, float 
 #if SWARMSIM_X86_LANES
 // scanLanes without a branch per hit or a scalar tail: each row's last lanes by masked loads, the hits packed
 // by a table permute (kLanePack), the insect itself masked out. The same points in the same order.
-SWARMSIM_AVX2 __attribute__((flatten)) void scanAvx2(const UniformGrid& grid, std::uint32_t k, float qx, float qy,
+SWARMSIM_AVX2 __attribute__((flatten)) std::size_t scanAvx2(const UniformGrid& grid, std::uint32_t k, float qx, float qy,
                                                      float qz, float r, std::vector<std::uint32_t>& out) {
   int lo[3], hi[3];
   grid.cellRange(qx, qy, qz, r, lo, hi);
@@ -62,7 +62,7 @@ SWARMSIM_AVX2 __attribute__((flatten)) void scanAvx2(const UniformGrid& grid, st
       room += grid.cellEnd(row + static_cast<std::size_t>(hi[0])) - grid.cellBegin(row + static_cast<std::size_t>(lo[0]));
     }
   }
-  out.resize(room);
+  if (out.size() < room) out.resize(room);  // (grows only: no zero fill of the room each time)
   std::uint32_t* dst = out.data();
   std::size_t n = 0;
   const float* sx = grid.sortedX().data();
@@ -100,11 +100,11 @@ SWARMSIM_AVX2 __attribute__((flatten)) void scanAvx2(const UniformGrid& grid, st
       }
     }
   }
-  out.resize(n);
+  return n;
 }
 // scanAvx2 on sixteen lanes: the hits packed by a compress, each row's last lanes by a masked load. The same
 // points in the same order.
-SWARMSIM_AVX512 __attribute__((flatten)) void scanAvx512(const UniformGrid& grid, std::uint32_t k, float qx, float qy,
+SWARMSIM_AVX512 __attribute__((flatten)) std::size_t scanAvx512(const UniformGrid& grid, std::uint32_t k, float qx, float qy,
                                                          float qz, float r, std::vector<std::uint32_t>& out) {
   int lo[3], hi[3];
   grid.cellRange(qx, qy, qz, r, lo, hi);
@@ -119,7 +119,7 @@ SWARMSIM_AVX512 __attribute__((flatten)) void scanAvx512(const UniformGrid& grid
       room += grid.cellEnd(row + static_cast<std::size_t>(hi[0])) - grid.cellBegin(row + static_cast<std::size_t>(lo[0]));
     }
   }
-  out.resize(room);
+  if (out.size() < room) out.resize(room);  // (grows only: no zero fill of the room each time)
   std::uint32_t* dst = out.data();
   std::size_t n = 0;
   const float* sx = grid.sortedX().data();
@@ -149,7 +149,7 @@ SWARMSIM_AVX512 __attribute__((flatten)) void scanAvx512(const UniformGrid& grid
       }
     }
   }
-  out.resize(n);
+  return n;
 }
 // sortById of at most kRankSortMax entries without a branch per comparison: each entry's rank is how many
 // ids are smaller (ids are distinct), counted eight at a time, and the entry goes to its rank. ids[] holds the
@@ -196,8 +196,12 @@ SWARMSIM_AVX __attribute__((flatten)) void scanAvx(const UniformGrid& g, std::ui
 
 void sortById(std::vector<std::uint32_t>& pos, const std::uint32_t* idOf, std::vector<std::uint64_t>& keys,
               LaneSet lanes) {
+  sortById(pos.data(), pos.size(), idOf, keys, lanes);
+}
+
+void sortById(std::uint32_t* pos, std::size_t m, const std::uint32_t* idOf, std::vector<std::uint64_t>& keys,
+              LaneSet lanes) {
 #if SWARMSIM_X86_LANES
-  const std::size_t m = pos.size();
   if ((lanes == LaneSet::kAvx2 || lanes == LaneSet::kAvx512) && m <= kRankSortMax) {
     // the ids, padded, and a copy of the positions
     alignas(64) std::uint32_t ids[kRankSortMax + 16], from[kRankSortMax];
@@ -207,19 +211,19 @@ void sortById(std::vector<std::uint32_t>& pos, const std::uint32_t* idOf, std::v
     }
     for (std::size_t e = m; e % 16 != 0; ++e) ids[e] = 0xffffffffu;
     if (lanes == LaneSet::kAvx512) {
-      rankSortAvx512(ids, from, m, pos.data());
+      rankSortAvx512(ids, from, m, pos);
     } else {
-      rankSortAvx2(ids, from, m, pos.data());
+      rankSortAvx2(ids, from, m, pos);
     }
     return;
   }
 #else
   (void)lanes;
 #endif
-  keys.resize(pos.size());
-  for (std::size_t e = 0; e < pos.size(); ++e) keys[e] = (std::uint64_t{idOf[pos[e]]} << 32) | pos[e];
+  keys.resize(m);
+  for (std::size_t e = 0; e < m; ++e) keys[e] = (std::uint64_t{idOf[pos[e]]} << 32) | pos[e];
   std::sort(keys.begin(), keys.end());
-  for (std::size_t e = 0; e < pos.size(); ++e) pos[e] = static_cast<std::uint32_t>(keys[e]);
+  for (std::size_t e = 0; e < m; ++e) pos[e] = static_cast<std::uint32_t>(keys[e]);
 }
 
 void NearLists::Slots::assign(std::size_t n, std::size_t capacity) {
@@ -263,36 +267,41 @@ const std::uint32_t* NearLists::build(std::uint32_t k, float r, const UniformGri
                                       std::vector<std::uint32_t>& scratch, std::vector<std::uint64_t>& keys,
                                       std::size_t& m, LaneSet lanes) {
   const float qx = grid.sortedX()[k], qy = grid.sortedY()[k], qz = grid.sortedZ()[k];
-  scratch.clear();
+  m = 0;
   if (grid.size() > 0) {
 #if SWARMSIM_X86_LANES
     switch (lanes) {
       case LaneSet::kAvx512:
-        scanAvx512(grid, k, qx, qy, qz, r, scratch);
+        m = scanAvx512(grid, k, qx, qy, qz, r, scratch);  // (scratch keeps its size, m are found)
         break;
       case LaneSet::kAvx2:
-        scanAvx2(grid, k, qx, qy, qz, r, scratch);
+        m = scanAvx2(grid, k, qx, qy, qz, r, scratch);
         break;
       case LaneSet::kAvx:
+        scratch.clear();
         scanAvx(grid, k, qx, qy, qz, r, scratch);
+        m = scratch.size();
         break;
       default:
+        scratch.clear();
         scanSse(grid, k, qx, qy, qz, r, scratch);
+        m = scratch.size();
     }
 #else
     (void)lanes;
+    scratch.clear();
     scanLanes<ScalarLanes>(grid, k, qx, qy, qz, r, scratch);
+    m = scratch.size();
 #endif
   }
-  sortById(scratch, idOf, keys, lanes);
-  m = scratch.size();
+  sortById(scratch.data(), m, idOf, keys, lanes);
   Slots& out = inPlace_ ? last_ : next_;
   if (m > capacity_) {
     out.len[k] = kNone;
     return scratch.data();
   }
   std::uint32_t* list = out.pos.data() + static_cast<std::size_t>(k) * capacity_;
-  std::copy(scratch.begin(), scratch.end(), list);
+  std::copy(scratch.data(), scratch.data() + m, list);
   out.len[k] = static_cast<std::uint32_t>(m);
   out.radius[k] = r;
   out.movedAt[k] = moved_;

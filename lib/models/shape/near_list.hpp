@@ -34,6 +34,9 @@ namespace swarmsim {
 // same order)
 void sortById(std::vector<std::uint32_t>& pos, const std::uint32_t* idOf, std::vector<std::uint64_t>& keys,
               LaneSet lanes);
+// the same of pos[0, m)
+void sortById(std::uint32_t* pos, std::size_t m, const std::uint32_t* idOf, std::vector<std::uint64_t>& keys,
+              LaneSet lanes);
 
 class NearLists {
  public:
@@ -65,7 +68,8 @@ class NearLists {
   // sorted position, the state index, to this step's), by ascending id, the insect itself left out
   const std::uint32_t* keep(std::uint32_t from, std::uint32_t k, const std::uint32_t* newPos, std::size_t& m);
   // a new list for sorted insect k: every other grid point within r (its coverage now), by ascending id;
-  // kept when it fits (`scratch` holds it otherwise; `keys` is scratch for the sort). `idOf` maps a sorted
+  // kept when it fits (`scratch` holds it otherwise, in its first m entries: scratch keeps its size, so that
+  // no build zero-fills it; `keys` is scratch for the sort). `idOf` maps a sorted
   // position to its id; `lanes`: the instruction set to scan with (laneSet(), core/lanes.hpp; every one
   // gives the same list)
   const std::uint32_t* build(std::uint32_t k, float r, const UniformGrid& grid, const std::uint32_t* idOf,
