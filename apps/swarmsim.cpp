@@ -131,7 +131,7 @@ int main(int argc, char** argv) {
   // bench
   std::vector<std::string> benchFiles;
   std::string benchAgents, benchThreads;
-  long long benchFrames = 0;
+  long long benchFrames = 0, benchSkip = 0;
   int benchRepeat = 3;
   bool benchJson = false;
   CLI::App* bench = app.add_subcommand("bench", "Time scenarios (no output written); without files, the built-in cases");
@@ -143,6 +143,8 @@ int main(int argc, char** argv) {
       ->type_name("N[,N...]");
   bench->add_option("--frames", benchFrames, "Frames to time per repetition (default: min(scenario frames, 10), more if that is under 0.1 s)")
       ->check(CLI::Range(1LL, 100000000LL));
+  bench->add_option("--skip", benchSkip, "Frames to run untimed before the timed ones (e.g. past a swarm's gathering; default 0)")
+      ->check(CLI::Range(0LL, 100000000LL));
   bench->add_option("--threads", benchThreads, "Thread counts T[,T...] (default: the CPUs this process may use)")
       ->type_name("T[,T...]");
   bench->add_flag("--fixed-threads", fixedThreads, "Keep each thread count even when other processes busy the CPUs");
@@ -380,6 +382,7 @@ int main(int argc, char** argv) {
       if (!benchAgents.empty()) opt.agents = parseList<std::int64_t>(benchAgents, "--agents");
       if (!benchThreads.empty()) opt.threads = parseList<int>(benchThreads, "--threads");
       opt.frames = benchFrames;
+      opt.skip = benchSkip;
       opt.repeat = benchRepeat;
       opt.json = benchJson;
       runBench(opt, std::cout);

@@ -100,6 +100,7 @@ void printRow(const BenchRow& row, const BenchOptions& options, std::ostream& ou
               {"steps_per_s", row.stepsPerSecond},
               {"ns_per_agent_step", row.nsPerAgentStep},
               {"steps", row.steps},
+              {"skipped_steps", row.skipped},
               {"threads_used", row.threadsUsed},
               {"repeat", options.repeat},
               {"model_info", row.modelInfo}};
@@ -397,6 +398,7 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
         requestThreads(threads);
         const std::int64_t frames = options.frames > 0 ? options.frames : std::min<std::int64_t>(sc.frames, 10);
         std::int64_t steps = std::max<std::int64_t>(1, frames * sc.stepsPerFrame);
+        const std::int64_t skipSteps = options.skip * sc.stepsPerFrame;
         std::vector<double> pre, rate, team;
         Json info = Json::array();
         for (int r = 0; r < std::max(1, options.repeat); ++r) {
@@ -409,6 +411,10 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
           Simulation sim(sc);
           pre.push_back(sim.preprocessSeconds());
           sim.step();  // warm-up: sizes scratch buffers
+          if (skipSteps > 0) {  // --skip: the frames before the timed ones (a swarm past its gathering, say)
+            for (std::int64_t k = 0; k < skipSteps; ++k) sim.step();
+            sim.restartBenchTimers();
+          }
           if (options.frames == 0 && r == 0) {
             // by default at least 0.1 s is timed: steps of a few agents are below the clock's resolution
             const auto w0 = Clock::now();
@@ -449,6 +455,7 @@ std::vector<BenchRow> runBench(const BenchOptions& options, std::ostream& out) {
         row.threadsUsed = median(team);
         row.nsPerAgentStep = 1e9 / (row.stepsPerSecond * static_cast<double>(row.agents));
         row.steps = steps;
+        row.skipped = skipSteps;
         row.modelInfo = info;
         rows.push_back(row);
         printRow(row, options, out, headerDone);

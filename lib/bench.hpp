@@ -16,6 +16,7 @@ struct BenchOptions {
   std::vector<int> threads;            // thread counts; empty: the current default
   std::vector<std::string> overrides;  // --set PATH=VALUE, applied to every scenario
   std::int64_t frames = 0;             // frames to time (0: min(scenario frames, 10))
+  std::int64_t skip = 0;               // frames stepped untimed before them (after the first step)
   int repeat = 3;                      // repetitions; the median is reported
   bool json = false;                   // JSON lines instead of a table
 };
@@ -28,6 +29,7 @@ struct BenchRow {
   double stepsPerSecond = 0.0;     // median
   double nsPerAgentStep = 0.0;     // from the median steps/s
   std::int64_t steps = 0;          // steps timed per repetition
+  std::int64_t skipped = 0;        // steps run untimed before them (--skip), besides the first
   double threadsUsed = 0.0;        // the thread team over the timed steps, averaged (median over repetitions)
   Json modelInfo;                  // per swarm, Model::benchInfo() (last repetition)
 };

@@ -33,6 +33,10 @@ class Simulation {
   double time() const { return static_cast<double>(step_) * world_.dt; }
   double preprocessSeconds() const { return preprocessSeconds_; }
   const Model& model(std::size_t swarm) const { return *models_[swarm]; }
+  // every model's Model::restartBenchTimers (bench: timing starts after untimed steps)
+  void restartBenchTimers() {
+    for (auto& m : models_) m->restartBenchTimers();
+  }
   // per swarm, the models' statistics since the last call (see Model::takeFrameStats)
   void takeFrameStats(std::vector<std::vector<double>>& out);
   // the state to continue from (steps, swarms, the models' saveState); frames,

@@ -245,6 +245,24 @@ TEST_CASE("CLI bench prints JSON lines", "[cli]") {
   CHECK(rows == 1);
 }
 
+TEST_CASE("CLI bench --skip times the frames after the skipped ones, the model's phases too", "[cli][shape]") {
+  TempDir dir;
+  const std::string moon = kSourceDir + "/scenarios/moon.json";
+  const auto r = runCli("bench " + shellQuote(moon) + " --set 'swarms[0].count=400' --skip 3 --frames 2 --repeat 1 --json", dir);
+  INFO("stdout: " << r.out << "\nstderr: " << r.err);
+  REQUIRE(r.exitCode == 0);
+  const Json j = parseJsonOrFail(r.out.substr(0, r.out.find('\n')));
+  CHECK(j.at("steps") == 4);          // 2 frames of 2 steps
+  CHECK(j.at("skipped_steps") == 6);  // 3 frames
+  const Json& info = j.at("model_info").at(0);
+  CHECK(info.at("timed_steps") == 4);  // the model's phases over the timed steps only
+  // per timed step: fractions of steps and insects, so at most 1
+  CHECK(info.at("grid_builds").get<double>() <= 1.0);
+  CHECK(info.at("list_rebuilds").get<double>() <= 1.0);
+  CHECK(info.at("ms_forces").get<double>() > 0.0);
+  CHECK(runCli("bench " + shellQuote(moon) + " --skip -1", dir).exitCode == 2);
+}
+
 TEST_CASE("CLI bench --case runs only the built-in cases named", "[cli]") {
   TempDir dir;
   // two of the four, at a small size: only their rows

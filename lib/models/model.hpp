@@ -31,6 +31,9 @@ class Model {
   virtual void takeFrameStats(std::vector<double>& values) { values.clear(); }
   // facts for `swarmsim bench` (grid sizes, preprocessing split...), a JSON object
   virtual Json benchInfo() const { return Json::object(); }
+  // `swarmsim bench --skip`: the timed steps begin now, after untimed ones; the per-phase timers that
+  // benchInfo reports start again from zero
+  virtual void restartBenchTimers() {}
   // facts about the built model worth keeping with its output (e.g. how a
   // target mesh was scaled), a JSON object stored as the swarm's `model_facts`
   // attribute (docs/output.md); empty: none

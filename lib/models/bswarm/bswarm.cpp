@@ -325,6 +325,11 @@ class BswarmModel final : public Model {
     totalAgentSteps_ += n;
   }
 
+  void restartBenchTimers() override {
+    tGrid_ = tForces_ = tOrcaNeighbours_ = tOrcaLp_ = 0.0;
+    timedAgentSteps_ = 0;
+  }
+
  private:
   // distance from the first stimulus's surface to the nearest insect (NaN without stimuli); min is exact in any order
   double nearestToStimulus(const SwarmState& s) {

@@ -189,11 +189,17 @@ class ShapeModel final : public Model {
     info["ms_noise"] = 1e3 * tNoiseStep_ / steps;  // the curl noise and sample point of every insect
     info["ms_forces"] = 1e3 * tForces_ / steps;    // the per-insect pass, and the next step's cell size
     info["ms_mde"] = 1e3 * tMde_ / steps;
+    info["timed_steps"] = timedSteps_;  // the steps these figures are over
     info["theta"] = p_.theta;
     info["neighbours"] = p_.neighbours;
     info["list_rebuilds"] = static_cast<double>(rebuilds_) / (steps * static_cast<double>(std::max<std::size_t>(1, speed_.size())));
     info["max_speed"] = p_.maxSpeed;
     return info;
+  }
+
+  void restartBenchTimers() override {
+    tInteraction_ = tForces_ = tMde_ = tGrid_ = tNoiseStep_ = 0.0;
+    gridBuilds_ = rebuilds_ = timedSteps_ = 0;
   }
 
   // carried between steps: which topology group is active and the assignment
