@@ -143,7 +143,9 @@ int main(int argc, char** argv) {
       ->type_name("N[,N...]");
   bench->add_option("--frames", benchFrames, "Frames to time per repetition (default: min(scenario frames, 10), more if that is under 0.1 s)")
       ->check(CLI::Range(1LL, 100000000LL));
-  bench->add_option("--skip", benchSkip, "Frames to run untimed before the timed ones (e.g. past a swarm's gathering; default 0)")
+  bench
+      ->add_option("--skip", benchSkip,
+                   "Frames to run untimed before the timed ones (e.g. past a swarm's gathering; default 0)")
       ->check(CLI::Range(0LL, 100000000LL));
   bench->add_option("--threads", benchThreads, "Thread counts T[,T...] (default: the CPUs this process may use)")
       ->type_name("T[,T...]");

@@ -248,7 +248,8 @@ TEST_CASE("CLI bench prints JSON lines", "[cli]") {
 TEST_CASE("CLI bench --skip times the frames after the skipped ones, the model's phases too", "[cli][shape]") {
   TempDir dir;
   const std::string moon = kSourceDir + "/scenarios/moon.json";
-  const auto r = runCli("bench " + shellQuote(moon) + " --set 'swarms[0].count=400' --skip 3 --frames 2 --repeat 1 --json", dir);
+  const auto r =
+      runCli("bench " + shellQuote(moon) + " --set 'swarms[0].count=400' --skip 3 --frames 2 --repeat 1 --json", dir);
   INFO("stdout: " << r.out << "\nstderr: " << r.err);
   REQUIRE(r.exitCode == 0);
   const Json j = parseJsonOrFail(r.out.substr(0, r.out.find('\n')));

@@ -46,8 +46,9 @@ inline void scanLanes(const UniformGrid& grid, std::uint32_t k, float qx, float 
 #if SWARMSIM_X86_LANES
 // scanLanes without a branch per hit or a scalar tail: each row's last lanes by masked loads, the hits packed
 // by a table permute (kLanePack), the insect itself masked out. The same points in the same order.
-SWARMSIM_AVX2 __attribute__((flatten)) std::size_t scanAvx2(const UniformGrid& grid, std::uint32_t k, float qx, float qy,
-                                                     float qz, float r, std::vector<std::uint32_t>& out) {
+SWARMSIM_AVX2 __attribute__((flatten)) std::size_t scanAvx2(const UniformGrid& grid, std::uint32_t k, float qx,
+                                                            float qy, float qz, float r,
+                                                            std::vector<std::uint32_t>& out) {
   int lo[3], hi[3];
   grid.cellRange(qx, qy, qz, r, lo, hi);
   const auto nx = static_cast<std::size_t>(grid.dim(0)), ny = static_cast<std::size_t>(grid.dim(1));
@@ -104,8 +105,9 @@ SWARMSIM_AVX2 __attribute__((flatten)) std::size_t scanAvx2(const UniformGrid& g
 }
 // scanAvx2 on sixteen lanes: the hits packed by a compress, each row's last lanes by a masked load. The same
 // points in the same order.
-SWARMSIM_AVX512 __attribute__((flatten)) std::size_t scanAvx512(const UniformGrid& grid, std::uint32_t k, float qx, float qy,
-                                                         float qz, float r, std::vector<std::uint32_t>& out) {
+SWARMSIM_AVX512 __attribute__((flatten)) std::size_t scanAvx512(const UniformGrid& grid, std::uint32_t k, float qx,
+                                                                float qy, float qz, float r,
+                                                                std::vector<std::uint32_t>& out) {
   int lo[3], hi[3];
   grid.cellRange(qx, qy, qz, r, lo, hi);
   const auto nx = static_cast<std::size_t>(grid.dim(0)), ny = static_cast<std::size_t>(grid.dim(1));
@@ -116,7 +118,8 @@ SWARMSIM_AVX512 __attribute__((flatten)) std::size_t scanAvx512(const UniformGri
   for (int cz = lo[2]; cz <= hi[2]; ++cz) {
     for (int cy = lo[1]; cy <= hi[1]; ++cy) {
       const std::size_t row = rowStart(cz, cy);
-      room += grid.cellEnd(row + static_cast<std::size_t>(hi[0])) - grid.cellBegin(row + static_cast<std::size_t>(lo[0]));
+      room +=
+          grid.cellEnd(row + static_cast<std::size_t>(hi[0])) - grid.cellBegin(row + static_cast<std::size_t>(lo[0]));
     }
   }
   if (out.size() < room) out.resize(room);  // (grows only: no zero fill of the room each time)
@@ -133,13 +136,14 @@ SWARMSIM_AVX512 __attribute__((flatten)) std::size_t scanAvx512(const UniformGri
       std::uint32_t j = grid.cellBegin(row + static_cast<std::size_t>(lo[0]));
       const std::uint32_t end = grid.cellEnd(row + static_cast<std::size_t>(hi[0]));
       for (; j < end; j += 16) {
-        const __mmask16 valid = end - j >= 16 ? static_cast<__mmask16>(0xffff)
-                                              : static_cast<__mmask16>((1u << (end - j)) - 1u);
+        const __mmask16 valid =
+            end - j >= 16 ? static_cast<__mmask16>(0xffff) : static_cast<__mmask16>((1u << (end - j)) - 1u);
         const __m512 dx = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, sx + j), vx);
         const __m512 dy = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, sy + j), vy);
         const __m512 dz = _mm512_sub_ps(_mm512_maskz_loadu_ps(valid, sz + j), vz);
         // the same operations in the same order as scanAvx2 (no fused multiply-add)
-        const __m512 d2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)), _mm512_mul_ps(dz, dz));
+        const __m512 d2 =
+            _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)), _mm512_mul_ps(dz, dz));
         unsigned hit = static_cast<unsigned>(_mm512_mask_cmp_ps_mask(valid, d2, vr2, _CMP_LE_OQ));
         if (k - j < 16u) hit &= ~(1u << (k - j));  // not the insect itself
         const __m512i lanePos = _mm512_add_epi32(_mm512_set1_epi32(static_cast<int>(j)), laneIndex);

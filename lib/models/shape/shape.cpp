@@ -883,7 +883,7 @@ class ShapeModel final : public Model {
   // by sorted position: this step's K nearest (sorted positions; kNone first when fewer than K), and by state
   // index last step's (their farthest now bounds the K-th distance: a search bound only, never checkpointed)
   std::vector<std::uint32_t> nearNext_, nearLast_;
-  bool nearKept_ = false;  // whether last step kept them (nearLast_ holds them)
+  bool nearKept_ = false;                 // whether last step kept them (nearLast_ holds them)
   std::vector<std::uint32_t> newPos_;     // last step's sorted position (this step's state index) -> this step's
   NearLists lists_;                       // the near lists (near_list.hpp)
   // by sorted position: the ids of the candidates within MDE's reach (this step's positions; in id order)
