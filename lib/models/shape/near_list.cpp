@@ -9,24 +9,57 @@ namespace swarmsim {
 
 namespace {
 
+// the cell rows a scan of radius r about q visits: row (cz, cy) for cz in [lo[2], hi[2]], cy in [lo[1], hi[1]],
+// each the run of sorted positions [begin, end) of its cells lo[0] to hi[0]
+struct ScanRows {
+  const UniformGrid& grid;
+  const float *x, *y, *z;  // the grid's sorted positions
+  int lo[3], hi[3];
+  std::size_t nx, ny;
+  ScanRows(const UniformGrid& g, float qx, float qy, float qz, float r)
+      : grid(g),
+        x(g.sortedX().data()),
+        y(g.sortedY().data()),
+        z(g.sortedZ().data()),
+        nx(static_cast<std::size_t>(g.dim(0))),
+        ny(static_cast<std::size_t>(g.dim(1))) {
+    g.cellRange(qx, qy, qz, r, lo, hi);
+  }
+  std::size_t row(int cz, int cy) const {
+    return (static_cast<std::size_t>(cz) * ny + static_cast<std::size_t>(cy)) * nx;
+  }
+  std::uint32_t begin(int cz, int cy) const { return grid.cellBegin(row(cz, cy) + static_cast<std::size_t>(lo[0])); }
+  std::uint32_t end(int cz, int cy) const { return grid.cellEnd(row(cz, cy) + static_cast<std::size_t>(hi[0])); }
+  // how many points the rows hold
+  std::size_t points() const {
+    std::size_t n = 0;
+    for (int cz = lo[2]; cz <= hi[2]; ++cz) {
+      for (int cy = lo[1]; cy <= hi[1]; ++cy) n += end(cz, cy) - begin(cz, cy);
+    }
+    return n;
+  }
+  // out with room for every point of the rows and the `lanes` a whole store writes past the last hit; out
+  // only grows (no zero fill of the room at each scan)
+  std::uint32_t* room(std::vector<std::uint32_t>& out, std::size_t lanes) const {
+    const std::size_t need = points() + lanes;
+    if (out.size() < need) out.resize(need);
+    return out.data();
+  }
+};
+
 // the grid points (sorted positions) j != k within r of q, eight candidates at a time over each cell row's run
 template <typename L>
 inline void scanLanes(const UniformGrid& grid, std::uint32_t k, float qx, float qy, float qz, float r,
                       std::vector<std::uint32_t>& out) {
   using V = typename L::V;
-  int lo[3], hi[3];
-  grid.cellRange(qx, qy, qz, r, lo, hi);
-  const float* sx = grid.sortedX().data();
-  const float* sy = grid.sortedY().data();
-  const float* sz = grid.sortedZ().data();
+  const ScanRows rows(grid, qx, qy, qz, r);
+  const float *sx = rows.x, *sy = rows.y, *sz = rows.z;
   const float r2 = r * r;
   const V vx = L::set1(qx), vy = L::set1(qy), vz = L::set1(qz), vr2 = L::set1(r2);
-  const auto nx = static_cast<std::size_t>(grid.dim(0)), ny = static_cast<std::size_t>(grid.dim(1));
-  for (int cz = lo[2]; cz <= hi[2]; ++cz) {
-    for (int cy = lo[1]; cy <= hi[1]; ++cy) {
-      const std::size_t row = (static_cast<std::size_t>(cz) * ny + static_cast<std::size_t>(cy)) * nx;
-      std::uint32_t j = grid.cellBegin(row + static_cast<std::size_t>(lo[0]));
-      const std::uint32_t end = grid.cellEnd(row + static_cast<std::size_t>(hi[0]));
+  for (int cz = rows.lo[2]; cz <= rows.hi[2]; ++cz) {
+    for (int cy = rows.lo[1]; cy <= rows.hi[1]; ++cy) {
+      std::uint32_t j = rows.begin(cz, cy);
+      const std::uint32_t end = rows.end(cz, cy);
       for (; j + kLanes <= end; j += static_cast<std::uint32_t>(kLanes)) {
         const V dx = L::sub(L::load(sx + j), vx), dy = L::sub(L::load(sy + j), vy), dz = L::sub(L::load(sz + j), vz);
         const V d2 = L::add(L::add(L::mul(dx, dx), L::mul(dy, dy)), L::mul(dz, dz));
@@ -49,33 +82,16 @@ inline void scanLanes(const UniformGrid& grid, std::uint32_t k, float qx, float 
 SWARMSIM_AVX2 __attribute__((flatten)) std::size_t scanAvx2(const UniformGrid& grid, std::uint32_t k, float qx,
                                                             float qy, float qz, float r,
                                                             std::vector<std::uint32_t>& out) {
-  int lo[3], hi[3];
-  grid.cellRange(qx, qy, qz, r, lo, hi);
-  const auto nx = static_cast<std::size_t>(grid.dim(0)), ny = static_cast<std::size_t>(grid.dim(1));
-  const auto rowStart = [&](int cz, int cy) {
-    return (static_cast<std::size_t>(cz) * ny + static_cast<std::size_t>(cy)) * nx;
-  };
-  // room for every point of the rows, and the eight lanes a pack writes
-  std::size_t room = 8;
-  for (int cz = lo[2]; cz <= hi[2]; ++cz) {
-    for (int cy = lo[1]; cy <= hi[1]; ++cy) {
-      const std::size_t row = rowStart(cz, cy);
-      room += grid.cellEnd(row + static_cast<std::size_t>(hi[0])) - grid.cellBegin(row + static_cast<std::size_t>(lo[0]));
-    }
-  }
-  if (out.size() < room) out.resize(room);  // (grows only: no zero fill of the room each time)
-  std::uint32_t* dst = out.data();
+  const ScanRows rows(grid, qx, qy, qz, r);
+  std::uint32_t* dst = rows.room(out, 8);
   std::size_t n = 0;
-  const float* sx = grid.sortedX().data();
-  const float* sy = grid.sortedY().data();
-  const float* sz = grid.sortedZ().data();
+  const float *sx = rows.x, *sy = rows.y, *sz = rows.z;
   const __m256 vx = _mm256_set1_ps(qx), vy = _mm256_set1_ps(qy), vz = _mm256_set1_ps(qz), vr2 = _mm256_set1_ps(r * r);
   const __m256i laneIndex = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-  for (int cz = lo[2]; cz <= hi[2]; ++cz) {
-    for (int cy = lo[1]; cy <= hi[1]; ++cy) {
-      const std::size_t row = rowStart(cz, cy);
-      std::uint32_t j = grid.cellBegin(row + static_cast<std::size_t>(lo[0]));
-      const std::uint32_t end = grid.cellEnd(row + static_cast<std::size_t>(hi[0]));
+  for (int cz = rows.lo[2]; cz <= rows.hi[2]; ++cz) {
+    for (int cy = rows.lo[1]; cy <= rows.hi[1]; ++cy) {
+      std::uint32_t j = rows.begin(cz, cy);
+      const std::uint32_t end = rows.end(cz, cy);
       for (; j < end; j += 8) {
         __m256 px, py, pz;
         const __m256i lanePos = _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(j)), laneIndex);
@@ -108,33 +124,16 @@ SWARMSIM_AVX2 __attribute__((flatten)) std::size_t scanAvx2(const UniformGrid& g
 SWARMSIM_AVX512 __attribute__((flatten)) std::size_t scanAvx512(const UniformGrid& grid, std::uint32_t k, float qx,
                                                                 float qy, float qz, float r,
                                                                 std::vector<std::uint32_t>& out) {
-  int lo[3], hi[3];
-  grid.cellRange(qx, qy, qz, r, lo, hi);
-  const auto nx = static_cast<std::size_t>(grid.dim(0)), ny = static_cast<std::size_t>(grid.dim(1));
-  const auto rowStart = [&](int cz, int cy) {
-    return (static_cast<std::size_t>(cz) * ny + static_cast<std::size_t>(cy)) * nx;
-  };
-  std::size_t room = 16;
-  for (int cz = lo[2]; cz <= hi[2]; ++cz) {
-    for (int cy = lo[1]; cy <= hi[1]; ++cy) {
-      const std::size_t row = rowStart(cz, cy);
-      room +=
-          grid.cellEnd(row + static_cast<std::size_t>(hi[0])) - grid.cellBegin(row + static_cast<std::size_t>(lo[0]));
-    }
-  }
-  if (out.size() < room) out.resize(room);  // (grows only: no zero fill of the room each time)
-  std::uint32_t* dst = out.data();
+  const ScanRows rows(grid, qx, qy, qz, r);
+  std::uint32_t* dst = rows.room(out, 16);
   std::size_t n = 0;
-  const float* sx = grid.sortedX().data();
-  const float* sy = grid.sortedY().data();
-  const float* sz = grid.sortedZ().data();
+  const float *sx = rows.x, *sy = rows.y, *sz = rows.z;
   const __m512 vx = _mm512_set1_ps(qx), vy = _mm512_set1_ps(qy), vz = _mm512_set1_ps(qz), vr2 = _mm512_set1_ps(r * r);
   const __m512i laneIndex = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-  for (int cz = lo[2]; cz <= hi[2]; ++cz) {
-    for (int cy = lo[1]; cy <= hi[1]; ++cy) {
-      const std::size_t row = rowStart(cz, cy);
-      std::uint32_t j = grid.cellBegin(row + static_cast<std::size_t>(lo[0]));
-      const std::uint32_t end = grid.cellEnd(row + static_cast<std::size_t>(hi[0]));
+  for (int cz = rows.lo[2]; cz <= rows.hi[2]; ++cz) {
+    for (int cy = rows.lo[1]; cy <= rows.hi[1]; ++cy) {
+      std::uint32_t j = rows.begin(cz, cy);
+      const std::uint32_t end = rows.end(cz, cy);
       for (; j < end; j += 16) {
         const __mmask16 valid =
             end - j >= 16 ? static_cast<__mmask16>(0xffff) : static_cast<__mmask16>((1u << (end - j)) - 1u);
