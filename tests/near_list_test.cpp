@@ -1,7 +1,7 @@
 // The shape model's neighbour lists (lib/models/shape/near_list.hpp): sortById puts sorted positions in
 // ascending order of their ids on every lane set (the rank counts of AVX2 or AVX-512 for short lists, std::sort
-// else),
-// and a list built from the grid holds exactly the points within its radius, in id order, whatever the lanes.
+// else), and a list built from the grid holds exactly the points within its radius, in id order, whatever the
+// lanes.
 #include <catch2/catch.hpp>
 
 #include <algorithm>

@@ -142,60 +142,81 @@ TEST_CASE("shape: F_int acts over each insect's K nearest neighbours within r_at
   // to speak of: one step changes each velocity by exactly F_int dt, which the test recomputes by brute force
   const std::string mesh = std::string(SWARMSIM_SOURCE_DIR) + "/data/shapes/sphere.obj";
   // at the first step (no neighbours known yet), at the sixth and the 41st (candidates from near lists kept
-  // over steps, some rebuilt)
-  for (const int warm : {0, 5, 40})
-  for (const int K : {1, 6, 40}) {
-    swarmsim::Json j = {
-        {"name", "knn"}, {"seed", 5u}, {"dt", 0.01}, {"frames", 200u}, {"steps_per_frame", 1u},
-        {"domain", {{"min", {-10, -10, -10}}, {"max", {10, 10, 10}}}},
-        {"swarms",
-         {{{"name", "flies"}, {"count", 400u}, {"model", "shape"}, {"initial_speed", 0.5},
-           {"spawn", {{"type", "box"}, {"min", {-3, -3, -3}}, {"max", {3, 3, 3}}}},
-           {"params",
-            {{"alpha", 1.0}, {"neighbours", static_cast<unsigned>(K)}, {"r_rep", 0.3}, {"r_ali", 0.8}, {"r_att", 1.5},
-             {"w_rep", 1.0}, {"w_ali", 2.0}, {"w_att", 3.0}, {"min_distance", 0.0},
-             // no noise and no obstacles: coarse noise and distance grids (their set-up was nearly all of the
-             // test's time, minutes under the sanitizers)
-             {"noise", {{"eta", 0.0}, {"cells", {8, 8, 8}}}}, {"sdf_cells", {16, 16, 16}},
-             {"max_speed", 1000.0}, {"targets", {{{"time", 1.0}, {"file", mesh}}}}}}}}}};
-    const swarmsim::Scenario sc = swarmsim::parseScenario(j, "knn.json");
-    swarmsim::Simulation sim(sc);
-    for (int w = 0; w < warm; ++w) sim.step();
-    const swarmsim::SwarmState before = sim.swarms()[0];
-    sim.step();
-    const swarmsim::SwarmState& after = sim.swarms()[0];
-    const std::size_t n = before.size();
-    std::vector<Vec3> x(n), v(n), v1(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      x[before.id[i]] = Vec3(before.px[i], before.py[i], before.pz[i]);
-      v[before.id[i]] = Vec3(before.vx[i], before.vy[i], before.vz[i]);
-      v1[after.id[i]] = Vec3(after.vx[i], after.vy[i], after.vz[i]);
-    }
-    int checked = 0, withFew = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      std::vector<std::pair<float, std::size_t>> near;
-      for (std::size_t o = 0; o < n; ++o) {
-        if (o == i) continue;
-        const Vec3 d = x[o] - x[i];
-        const float d2 = d.x() * d.x() + d.y() * d.y() + d.z() * d.z();
-        if (d2 <= 1.5f * 1.5f) near.emplace_back(d2, o);
+  // over steps, some rebuilt); at 0.5 m/s, and at 30 m/s, where the insects move fast for their spacing and each
+  // one's search is bounded by last step's K nearest
+  for (const double speed : {0.5, 30.0})
+    for (const int warm : {0, 5, 40})
+      for (const int K : {1, 6, 40}) {
+        swarmsim::Json j = {{"name", "knn"},
+                            {"seed", 5u},
+                            {"dt", 0.01},
+                            {"frames", 200u},
+                            {"steps_per_frame", 1u},
+                            {"domain", {{"min", {-10, -10, -10}}, {"max", {10, 10, 10}}}},
+                            {"swarms",
+                             {{{"name", "flies"},
+                               {"count", 400u},
+                               {"model", "shape"},
+                               {"initial_speed", speed},
+                               {"spawn", {{"type", "box"}, {"min", {-3, -3, -3}}, {"max", {3, 3, 3}}}},
+                               {"params",
+                                {{"alpha", 1.0},
+                                 {"neighbours", static_cast<unsigned>(K)},
+                                 {"r_rep", 0.3},
+                                 {"r_ali", 0.8},
+                                 {"r_att", 1.5},
+                                 {"w_rep", 1.0},
+                                 {"w_ali", 2.0},
+                                 {"w_att", 3.0},
+                                 {"min_distance", 0.0},
+                                 // no noise and no obstacles: coarse noise and distance grids (their set-up was nearly
+                                 // all of the test's time, minutes under the sanitizers)
+                                 {"noise", {{"eta", 0.0}, {"cells", {8, 8, 8}}}},
+                                 {"sdf_cells", {16, 16, 16}},
+                                 {"max_speed", 1000.0},
+                                 {"targets", {{{"time", 1.0}, {"file", mesh}}}}}}}}}};
+        const swarmsim::Scenario sc = swarmsim::parseScenario(j, "knn.json");
+        swarmsim::Simulation sim(sc);
+        for (int w = 0; w < warm; ++w) sim.step();
+        const swarmsim::SwarmState before = sim.swarms()[0];
+        sim.step();
+        const swarmsim::SwarmState& after = sim.swarms()[0];
+        const std::size_t n = before.size();
+        std::vector<Vec3> x(n), v(n), v1(n);
+        for (std::size_t i = 0; i < n; ++i) {
+          x[before.id[i]] = Vec3(before.px[i], before.py[i], before.pz[i]);
+          v[before.id[i]] = Vec3(before.vx[i], before.vy[i], before.vz[i]);
+          v1[after.id[i]] = Vec3(after.vx[i], after.vy[i], after.vz[i]);
+        }
+        int checked = 0, withFew = 0;
+        for (std::size_t i = 0; i < n; ++i) {
+          std::vector<std::pair<float, std::size_t>> near;
+          for (std::size_t o = 0; o < n; ++o) {
+            if (o == i) continue;
+            const Vec3 d = x[o] - x[i];
+            const float d2 = d.x() * d.x() + d.y() * d.y() + d.z() * d.z();
+            if (d2 <= 1.5f * 1.5f) near.emplace_back(d2, o);
+          }
+          std::sort(near.begin(), near.end());
+          if (near.size() < static_cast<std::size_t>(K)) ++withFew;
+          near.resize(std::min(near.size(), static_cast<std::size_t>(K)));
+          swarmsim::ZonalSum z(0.3f, 0.8f, 1.5f, 1.0f, 2.0f, 3.0f);
+          for (const auto& [d2, o] : near) {
+            const Vec3 d = x[o] - x[i], dv = v[o] - v[i];
+            z.add(d.x(), d.y(), d.z(), d2, dv.x(), dv.y(), dv.z());
+          }
+          const Vec3 expected = z.force();
+          const Vec3 got = (v1[i] - v[i]) / 0.01f;
+          CHECK((got - expected).norm() <= 1e-3f * std::max(1.0f, expected.norm()));
+          ++checked;
+        }
+        CHECK(checked == 400);
+        if (K == 40) CHECK(withFew > 50);  // some insects have fewer than K within r_att: all of those count
+        // the fast swarm's steps after the first took the bound from last step's K nearest
+        const double kept = sim.model(0).benchInfo().at("near_kept").get<double>();
+        if (speed > 1.0 && warm > 0) CHECK(kept > 0.5);
+        if (speed < 1.0) CHECK(kept == 0.0);
       }
-      std::sort(near.begin(), near.end());
-      if (near.size() < static_cast<std::size_t>(K)) ++withFew;
-      near.resize(std::min(near.size(), static_cast<std::size_t>(K)));
-      swarmsim::ZonalSum z(0.3f, 0.8f, 1.5f, 1.0f, 2.0f, 3.0f);
-      for (const auto& [d2, o] : near) {
-        const Vec3 d = x[o] - x[i], dv = v[o] - v[i];
-        z.add(d.x(), d.y(), d.z(), d2, dv.x(), dv.y(), dv.z());
-      }
-      const Vec3 expected = z.force();
-      const Vec3 got = (v1[i] - v[i]) / 0.01f;
-      CHECK((got - expected).norm() <= 1e-3f * std::max(1.0f, expected.norm()));
-      ++checked;
-    }
-    CHECK(checked == 400);
-    if (K == 40) CHECK(withFew > 50);  // some insects have fewer than K within r_att: all of those count
-  }
 }
 
 namespace {

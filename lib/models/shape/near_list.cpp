@@ -49,10 +49,12 @@ struct ScanRows {
 
 // the grid points (sorted positions) j != k within r of q, eight candidates at a time over each cell row's run
 template <typename L>
-inline void scanLanes(const UniformGrid& grid, std::uint32_t k, float qx, float qy, float qz, float r,
-                      std::vector<std::uint32_t>& out) {
+inline std::size_t scanLanes(const UniformGrid& grid, std::uint32_t k, float qx, float qy, float qz, float r,
+                             std::vector<std::uint32_t>& out) {
   using V = typename L::V;
   const ScanRows rows(grid, qx, qy, qz, r);
+  std::uint32_t* dst = rows.room(out, 0);
+  std::size_t n = 0;
   const float *sx = rows.x, *sy = rows.y, *sz = rows.z;
   const float r2 = r * r;
   const V vx = L::set1(qx), vy = L::set1(qy), vz = L::set1(qz), vr2 = L::set1(r2);
@@ -65,15 +67,16 @@ inline void scanLanes(const UniformGrid& grid, std::uint32_t k, float qx, float 
         const V d2 = L::add(L::add(L::mul(dx, dx), L::mul(dy, dy)), L::mul(dz, dz));
         for (unsigned bits = L::mask(L::le(d2, vr2)); bits; bits &= bits - 1u) {
           const std::uint32_t p = j + static_cast<std::uint32_t>(__builtin_ctz(bits));
-          if (p != k) out.push_back(p);
+          if (p != k) dst[n++] = p;
         }
       }
       for (; j < end; ++j) {
         const float dx = sx[j] - qx, dy = sy[j] - qy, dz = sz[j] - qz;
-        if (dx * dx + dy * dy + dz * dz <= r2 && j != k) out.push_back(j);
+        if (dx * dx + dy * dy + dz * dz <= r2 && j != k) dst[n++] = j;
       }
     }
   }
+  return n;
 }
 
 #if SWARMSIM_X86_LANES
@@ -185,13 +188,13 @@ SWARMSIM_AVX512 void rankSortAvx512(const std::uint32_t* ids, const std::uint32_
     out[rank] = pos[i];
   }
 }
-__attribute__((flatten)) void scanSse(const UniformGrid& g, std::uint32_t k, float x, float y, float z, float r,
-                                      std::vector<std::uint32_t>& out) {
-  scanLanes<SseLanes>(g, k, x, y, z, r, out);
+__attribute__((flatten)) std::size_t scanSse(const UniformGrid& g, std::uint32_t k, float x, float y, float z, float r,
+                                             std::vector<std::uint32_t>& out) {
+  return scanLanes<SseLanes>(g, k, x, y, z, r, out);
 }
-SWARMSIM_AVX __attribute__((flatten)) void scanAvx(const UniformGrid& g, std::uint32_t k, float x, float y, float z,
-                                                   float r, std::vector<std::uint32_t>& out) {
-  scanLanes<AvxLanes>(g, k, x, y, z, r, out);
+SWARMSIM_AVX __attribute__((flatten)) std::size_t scanAvx(const UniformGrid& g, std::uint32_t k, float x, float y,
+                                                          float z, float r, std::vector<std::uint32_t>& out) {
+  return scanLanes<AvxLanes>(g, k, x, y, z, r, out);
 }
 #endif
 
@@ -270,31 +273,26 @@ const std::uint32_t* NearLists::build(std::uint32_t k, float r, const UniformGri
                                       std::vector<std::uint32_t>& scratch, std::vector<std::uint64_t>& keys,
                                       std::size_t& m, LaneSet lanes) {
   const float qx = grid.sortedX()[k], qy = grid.sortedY()[k], qz = grid.sortedZ()[k];
+  // (every scan keeps scratch's size and returns how many it found: no build zero-fills its room)
   m = 0;
   if (grid.size() > 0) {
 #if SWARMSIM_X86_LANES
     switch (lanes) {
       case LaneSet::kAvx512:
-        m = scanAvx512(grid, k, qx, qy, qz, r, scratch);  // (scratch keeps its size, m are found)
+        m = scanAvx512(grid, k, qx, qy, qz, r, scratch);
         break;
       case LaneSet::kAvx2:
         m = scanAvx2(grid, k, qx, qy, qz, r, scratch);
         break;
       case LaneSet::kAvx:
-        scratch.clear();
-        scanAvx(grid, k, qx, qy, qz, r, scratch);
-        m = scratch.size();
+        m = scanAvx(grid, k, qx, qy, qz, r, scratch);
         break;
       default:
-        scratch.clear();
-        scanSse(grid, k, qx, qy, qz, r, scratch);
-        m = scratch.size();
+        m = scanSse(grid, k, qx, qy, qz, r, scratch);
     }
 #else
     (void)lanes;
-    scratch.clear();
-    scanLanes<ScalarLanes>(grid, k, qx, qy, qz, r, scratch);
-    m = scratch.size();
+    m = scanLanes<ScalarLanes>(grid, k, qx, qy, qz, r, scratch);
 #endif
   }
   sortById(scratch.data(), m, idOf, keys, lanes);

@@ -190,6 +190,8 @@ class ShapeModel final : public Model {
     info["ms_forces"] = 1e3 * tForces_ / steps;    // the per-insect pass, and the next step's cell size
     info["ms_mde"] = 1e3 * tMde_ / steps;
     info["timed_steps"] = timedSteps_;  // the steps these figures are over
+    // per step: the share that bounded each insect's K-nearest search by last step's K (see step)
+    info["near_kept"] = static_cast<double>(keptSteps_) / steps;
     info["theta"] = p_.theta;
     info["neighbours"] = p_.neighbours;
     info["list_rebuilds"] = static_cast<double>(rebuilds_) / (steps * static_cast<double>(std::max<std::size_t>(1, speed_.size())));
@@ -199,7 +201,7 @@ class ShapeModel final : public Model {
 
   void restartBenchTimers() override {
     tInteraction_ = tForces_ = tMde_ = tGrid_ = tNoiseStep_ = 0.0;
-    gridBuilds_ = rebuilds_ = timedSteps_ = 0;
+    gridBuilds_ = rebuilds_ = timedSteps_ = keptSteps_ = 0;
   }
 
   // carried between steps: which topology group is active and the assignment
@@ -404,11 +406,7 @@ class ShapeModel final : public Model {
       if (reachLast_.size() != n) reachLast_.assign(n, cellHint_);
       lists_.reset(n, listCapacity(K), static_cast<float>(p_.listSkin));
       reach_.resize(n);
-      if (nearLast_.size() != n * K) {
-        nearLast_.assign(n * K, NearLists::kNone);
-        nearKept_ = false;
-      }
-      nearNext_.resize(n * K);
+      if (nearLast_.size() != n * K) nearKept_ = false;  // (kept for another swarm size, or never)
       // the lists hold last step's sorted positions, which are this step's state indices only while the state
       // is in the order last step wrote it: else (the first step, a resume, a new target) they go
       if (!asLast) lists_.clear();
@@ -418,6 +416,8 @@ class ShapeModel final : public Model {
     // spacing (two of last step's largest moves beyond a tenth of the cell, about the K-th distance): there the
     // bound from last step's K-th distance alone takes in many more than K, elsewhere the K look-ups cost more
     const bool keepNear = nearest && 2.0 * lists_.lastMove() > 0.1 * static_cast<double>(cellHint_);
+    if (keepNear) nearNext_.resize(n * K);  // (allocated only where kept: 8 K bytes per insect for the two)
+    if (nearKept_) ++keptSteps_;
     const ZoneLanes zoneLanes = {zones.rRep2, zones.rAli2, zones.rAtt2, {zones.w[0], zones.w[1], zones.w[2]}};
     const LaneSet lanes = laneSet();
     const bool avx = lanes != LaneSet::kSse;  // for the kernels without an AVX2 variant
@@ -447,8 +447,8 @@ class ShapeModel final : public Model {
         // tighter, where last step kept its K nearest: the farthest of them now (K other insects, so the K
         // nearest now are no farther; the squared distance as gatherClassify computes it, the root with a
         // float slack)
-        const std::uint32_t* prev = nearLast_.data() + std::size_t{from} * K;
-        if (nearKept_ && prev[0] != NearLists::kNone) {
+        const std::uint32_t* prev = nearKept_ ? nearLast_.data() + std::size_t{from} * K : nullptr;
+        if (prev && prev[0] != NearLists::kNone) {
           float far2 = 0.0f;
           for (std::size_t q = 0; q < K; ++q) {
             const float* row = rows + kRowFloats * std::size_t{newPos_[prev[q]]};
@@ -628,7 +628,7 @@ class ShapeModel final : public Model {
       // The cell size is a speed choice only:
       // no sum depends on it (the sums run over the neighbours that count, in id order)
       reach_.swap(reachLast_);
-      nearLast_.swap(nearNext_);
+      if (keepNear) nearLast_.swap(nearNext_);
       nearKept_ = keepNear;
       if (n > 0) {
         const std::size_t stride = std::max<std::size_t>(1, n / 1024), samples = (n + stride - 1) / stride;
@@ -756,9 +756,7 @@ class ShapeModel final : public Model {
     frameMoved_ += moved;
     frameAgentSteps_ += n;
     if (info.step == 0) {
-      tInteraction_ = tForces_ = tMde_ = tGrid_ = tNoiseStep_ = 0.0;
-      gridBuilds_ = 0;
-      rebuilds_ = 0;  // the first step sizes every buffer: not timed
+      restartBenchTimers();  // the first step sizes every buffer: not timed
     } else {
       ++timedSteps_;
     }
@@ -884,6 +882,7 @@ class ShapeModel final : public Model {
   // index last step's (their farthest now bounds the K-th distance: a search bound only, never checkpointed)
   std::vector<std::uint32_t> nearNext_, nearLast_;
   bool nearKept_ = false;                 // whether last step kept them (nearLast_ holds them)
+  std::size_t keptSteps_ = 0;             // timed steps that bounded the search by them (a statistic)
   std::vector<std::uint32_t> newPos_;     // last step's sorted position (this step's state index) -> this step's
   NearLists lists_;                       // the near lists (near_list.hpp)
   // by sorted position: the ids of the candidates within MDE's reach (this step's positions; in id order)
