@@ -237,6 +237,7 @@ void NearLists::Slots::assign(std::size_t n, std::size_t capacity) {
   len.assign(n, kNone);
   radius.assign(n, 0.0f);
   movedAt.assign(n, 0.0);
+  own.assign(n, 0.0f);
 }
 
 void NearLists::reset(std::size_t n, std::size_t capacity, float skin) {
@@ -246,6 +247,19 @@ void NearLists::reset(std::size_t n, std::size_t capacity, float skin) {
   capacity_ = capacity;
   last_.assign(n, capacity);
   next_.assign(n, capacity);
+  lastOwn_.assign(n, 0.0f);
+}
+
+void NearLists::advance(double maxMove, const float* own) {
+  moved_ += maxMove;
+  lastMove_ = maxMove;
+  if (own) {
+    std::copy(own, own + n_, lastOwn_.begin());
+  } else {
+    std::fill(lastOwn_.begin(), lastOwn_.end(), static_cast<float>(maxMove));
+  }
+  if (!inPlace_) std::swap(last_, next_);
+  inPlace_ = false;
 }
 
 void NearLists::clear() {
@@ -259,6 +273,7 @@ const std::uint32_t* NearLists::keep(std::uint32_t from, std::uint32_t k, const 
   const std::uint32_t* old = last_.pos.data() + static_cast<std::size_t>(from) * capacity_;
   if (inPlace_) {
     if (from != k) throw std::logic_error("NearLists::keep: a step in place with an insect moved");
+    last_.own[k] += lastOwn_[k];
     return old;  // every sorted position is last step's: the list as it is
   }
   std::uint32_t* list = next_.pos.data() + static_cast<std::size_t>(k) * capacity_;
@@ -266,6 +281,7 @@ const std::uint32_t* NearLists::keep(std::uint32_t from, std::uint32_t k, const 
   next_.len[k] = static_cast<std::uint32_t>(m);
   next_.radius[k] = last_.radius[from];
   next_.movedAt[k] = last_.movedAt[from];
+  next_.own[k] = last_.own[from] + lastOwn_[from];
   return list;
 }
 
@@ -306,6 +322,7 @@ const std::uint32_t* NearLists::build(std::uint32_t k, float r, const UniformGri
   out.len[k] = static_cast<std::uint32_t>(m);
   out.radius[k] = r;
   out.movedAt[k] = moved_;
+  out.own[k] = 0.0f;
   return list;
 }
 

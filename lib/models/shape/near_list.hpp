@@ -7,11 +7,15 @@
 // sorted position in this step's grid: a kept list is translated every step
 // from last step's positions (the state's order) to this step's, which lie
 // near the insect's own, where an id would need a look-up anywhere in an
-// array indexed by id. A step asks for every
-// insect within some radius ρ_i now. Between the build and now no insect moved
-// farther than ΔS (the sum of each step's largest move, advance()), so any
-// insect within ρ_i now was within ρ_i + 2 ΔS then: the list still covers ρ_i
-// while ρ_i + 2 ΔS <= R_i. Otherwise the list is built again from the grid, at
+// array indexed by id. A step asks for every insect within some radius ρ_i
+// now. Moves are measured against a translation common to every insect, a
+// different one each step (advance()): an offset x_j - x_i changes in a step
+// by d_j - d_i = (d_j - c) - (d_i - c), at most |d_i - c| + max_j |d_j - c|
+// for any c, so a swarm that travels together keeps its lists. Between the
+// build and now insect i moved at most S_i and every insect at most ΔS
+// (sums of those relative moves over the steps), so any insect within ρ_i
+// now was within ρ_i + S_i + ΔS then: the list still covers ρ_i while
+// ρ_i + S_i + ΔS <= R_i. Otherwise the list is built again from the grid, at
 // R_i = ρ_i (1 + skin); one too long for its slot (capacity) is not kept, and
 // the grid's candidates serve that step only.
 //
@@ -60,10 +64,12 @@ class NearLists {
   // float slack), or a negative number when there is none.
   float coverage(std::uint32_t from) const {
     if (from == kNone || last_.len[from] == kNone) return -1.0f;
-    return static_cast<float>((static_cast<double>(last_.radius[from]) - 2.0 * (moved_ - last_.movedAt[from]) -
-                               1e-6) /
+    const double own = static_cast<double>(last_.own[from]) + static_cast<double>(lastOwn_[from]);
+    return static_cast<float>((static_cast<double>(last_.radius[from]) - (moved_ - last_.movedAt[from]) - own - 1e-6) /
                               (1.0 + 1e-5));
   }
+  // how far the insect of state index `from` moved last step (m, relative to that step's common translation)
+  float lastOwnMove(std::uint32_t from) const { return lastOwn_[from]; }
   // keep the list of slot `from` for sorted insect k: its sorted positions now (newPos maps last step's
   // sorted position, the state index, to this step's), by ascending id, the insect itself left out
   const std::uint32_t* keep(std::uint32_t from, std::uint32_t k, const std::uint32_t* newPos, std::size_t& m);
@@ -75,7 +81,7 @@ class NearLists {
   const std::uint32_t* build(std::uint32_t k, float r, const UniformGrid& grid, const std::uint32_t* idOf,
                              std::vector<std::uint32_t>& scratch, std::vector<std::uint64_t>& keys, std::size_t& m,
                              LaneSet lanes);
-  // the largest move of last step (m)
+  // the largest move of last step (m, relative to its common translation)
   double lastMove() const { return lastMove_; }
   float skin() const { return skin_; }
 
@@ -86,13 +92,10 @@ class NearLists {
     m = out.len[k];
     return m == kNone ? nullptr : out.pos.data() + static_cast<std::size_t>(k) * capacity_;
   }
-  // after a step in which no insect moved farther than maxMove (m): this step's lists become last step's
-  void advance(double maxMove) {
-    moved_ += maxMove;
-    lastMove_ = maxMove;
-    if (!inPlace_) std::swap(last_, next_);
-    inPlace_ = false;
-  }
+  // after a step in which sorted insect k moved own[k] (m) relative to a translation common to every insect,
+  // each no more than maxMove (nullptr: maxMove for every one; upper bounds of the exact values, float
+  // rounding included): this step's lists become last step's
+  void advance(double maxMove, const float* own = nullptr);
 
  private:
   struct Slots {
@@ -100,11 +103,13 @@ class NearLists {
     std::vector<std::uint32_t> len;   // per slot: list length, or kNone
     std::vector<float> radius;        // per slot: R_i
     std::vector<double> movedAt;      // per slot: moved_ when the list was built
+    std::vector<float> own;           // per slot: the insect's own relative moves since the build, but the last
     void assign(std::size_t n, std::size_t capacity);
   };
   std::size_t n_ = 0, capacity_ = 0;
   float skin_ = 0.3f;
-  double moved_ = 0.0;  // Σ of each step's largest move
+  double moved_ = 0.0;          // Σ of each step's largest (relative) move
+  std::vector<float> lastOwn_;  // by state index: each insect's relative move last step
   double lastMove_ = 0.0;
   bool inPlace_ = false;  // beginStep
   Slots last_, next_;

@@ -443,7 +443,8 @@ class ShapeModel final : public Model {
       float lastReach = 0.0f, guess = rAtt;
       if (known) {
         lastReach = reachLast_[from];
-        guess = std::min(rAtt, lastReach + 2.0f * static_cast<float>(lists_.lastMove()) * 1.001f + 1e-6f);
+        guess = std::min(
+            rAtt, lastReach + (static_cast<float>(lists_.lastMove()) + lists_.lastOwnMove(from)) * 1.001f + 1e-6f);
         // tighter, where last step kept its K nearest: the farthest of them now (K other insects, so the K
         // nearest now are no farther; the squared distance as gatherClassify computes it, the root with a
         // float slack)
@@ -700,7 +701,7 @@ class ShapeModel final : public Model {
       for (std::size_t q = 0; q < nz; ++q) x.x() += (id < ns.cj[q] ? -0.5f : 0.5f) * md;
       return kernel.hits() > 0 || nz > 0;
     };
-    if (nearest) move2_.resize(n);
+    if (nearest) move_.resize(3 * n);
     parallelFor(n, [&](std::size_t k) {
       Vec3 x(tx_[k], ty_[k], tz_[k]);
       bool pushed = false;
@@ -725,7 +726,11 @@ class ShapeModel final : public Model {
         }
       }
       x = clearance_.apply(x).cwiseMax(lo).cwiseMin(hi);
-      if (nearest) move2_[k] = (x - Vec3(sx[k], sy[k], sz[k])).squaredNorm();
+      if (nearest) {
+        move_[3 * k] = x.x() - sx[k];
+        move_[3 * k + 1] = x.y() - sy[k];
+        move_[3 * k + 2] = x.z() - sz[k];
+      }
       movedFlag_[k] = pushed ? 1 : 0;
       next_.px[k] = x.x();
       next_.py[k] = x.y();
@@ -739,11 +744,33 @@ class ShapeModel final : public Model {
     });
     std::size_t moved = 0;
     for (std::size_t k = 0; k < n; ++k) moved += movedFlag_[k];
-    if (nearest) {  // how far the lists' insects can have moved (a max: the same for any order)
-      float move2 = 0.0f;
-      for (std::size_t k = 0; k < n; ++k) move2 = std::max(move2, move2_[k]);
+    if (nearest) {
+      // how far the insects moved: the largest move (for the grid's cells), and each one's move relative to the
+      // middle c of the moves' bounding box (for the lists and the K-th distance bound: two insects' offset
+      // changed by at most |d_i - c| + |d_j - c| for any c, so a swarm travelling together keeps its lists).
+      // Maxima and minima: the same for any order.
+      float dlo[3] = {0.0f, 0.0f, 0.0f}, dhi[3] = {0.0f, 0.0f, 0.0f}, move2 = 0.0f, rel = 0.0f;
+      if (n > 0) {
+        for (int a = 0; a < 3; ++a) dlo[a] = dhi[a] = move_[static_cast<std::size_t>(a)];
+      }
+      for (std::size_t k = 0; k < n; ++k) {
+        const float* d = move_.data() + 3 * k;
+        for (int a = 0; a < 3; ++a) {
+          dlo[a] = std::min(dlo[a], d[a]);
+          dhi[a] = std::max(dhi[a], d[a]);
+        }
+        move2 = std::max(move2, d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+      }
+      const float c[3] = {0.5f * (dlo[0] + dhi[0]), 0.5f * (dlo[1] + dhi[1]), 0.5f * (dlo[2] + dhi[2])};
+      ownMove_.resize(n);
+      for (std::size_t k = 0; k < n; ++k) {  // (an upper bound: float rounding of the norm and of c's offset)
+        const float* d = move_.data() + 3 * k;
+        const float ex = d[0] - c[0], ey = d[1] - c[1], ez = d[2] - c[2];
+        ownMove_[k] = std::sqrt(ex * ex + ey * ey + ez * ez) * (1.0f + 1e-5f) + 1e-7f;
+        rel = std::max(rel, ownMove_[k]);
+      }
       lastMaxMove_ = static_cast<double>(std::sqrt(move2)) * (1.0 + 1e-5) + 1e-7;
-      lists_.advance(lastMaxMove_);
+      lists_.advance(static_cast<double>(rel), ownMove_.data());
       for (NearScratch& ns : scratch_) {
         rebuilds_ += ns.rebuilds;
         ns.rebuilds = 0;
@@ -891,7 +918,8 @@ class ShapeModel final : public Model {
   static constexpr std::uint8_t kMdeNone = 0xff;
   std::vector<std::uint32_t> mdeNear_;
   std::vector<std::uint8_t> mdeCount_;
-  std::vector<float> move2_;              // by sorted position: the squared move of this step
+  std::vector<float> move_;     // by sorted position: the move of this step (x, y, z)
+  std::vector<float> ownMove_;  // by sorted position: the move of this step relative to all (near lists)
   float cellHint_ = 0.0f;     // the grid's smallest cell from the last step's K-th distances (checkpointed)
   std::vector<std::uint8_t> movedFlag_;
   std::vector<float> err_, speed_, sortScratch_;
