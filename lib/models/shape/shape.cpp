@@ -3,10 +3,11 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
-#include <cstring>
-#include <sstream>
 #include <cmath>
+#include <cstring>
+#include <limits>
 #include <numeric>
+#include <sstream>
 #include <stdexcept>
 
 #include "core/lanes.hpp"
@@ -701,7 +702,10 @@ class ShapeModel final : public Model {
       for (std::size_t q = 0; q < nz; ++q) x.x() += (id < ns.cj[q] ? -0.5f : 0.5f) * md;
       return kernel.hits() > 0 || nz > 0;
     };
-    if (nearest) move_.resize(3 * n);
+    if (nearest) {
+      move_.resize(3 * n);
+      moveBox_.assign(static_cast<std::size_t>(chunkCount(n)), MoveBox{});
+    }
     parallelFor(n, [&](std::size_t k) {
       Vec3 x(tx_[k], ty_[k], tz_[k]);
       bool pushed = false;
@@ -749,26 +753,43 @@ class ShapeModel final : public Model {
       // middle c of the moves' bounding box (for the lists and the K-th distance bound: two insects' offset
       // changed by at most |d_i - c| + |d_j - c| for any c, so a swarm travelling together keeps its lists).
       // Maxima and minima: the same for any order.
-      float dlo[3] = {0.0f, 0.0f, 0.0f}, dhi[3] = {0.0f, 0.0f, 0.0f}, move2 = 0.0f, rel = 0.0f;
-      if (n > 0) {
-        for (int a = 0; a < 3; ++a) dlo[a] = dhi[a] = move_[static_cast<std::size_t>(a)];
-      }
-      for (std::size_t k = 0; k < n; ++k) {
-        const float* d = move_.data() + 3 * k;
-        for (int a = 0; a < 3; ++a) {
-          dlo[a] = std::min(dlo[a], d[a]);
-          dhi[a] = std::max(dhi[a], d[a]);
+      parallelChunks(n, [&](std::size_t first, std::size_t last, int chunk) {
+        MoveBox box;
+        for (std::size_t k = first; k < last; ++k) {
+          const float* d = move_.data() + 3 * k;
+          for (int a = 0; a < 3; ++a) {
+            box.lo[a] = std::min(box.lo[a], d[a]);
+            box.hi[a] = std::max(box.hi[a], d[a]);
+          }
+          box.move2 = std::max(box.move2, d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
         }
-        move2 = std::max(move2, d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        moveBox_[static_cast<std::size_t>(chunk)] = box;
+      });
+      MoveBox all;
+      for (const MoveBox& b : moveBox_) {
+        for (int a = 0; a < 3; ++a) {
+          all.lo[a] = std::min(all.lo[a], b.lo[a]);
+          all.hi[a] = std::max(all.hi[a], b.hi[a]);
+        }
+        all.move2 = std::max(all.move2, b.move2);
       }
-      const float c[3] = {0.5f * (dlo[0] + dhi[0]), 0.5f * (dlo[1] + dhi[1]), 0.5f * (dlo[2] + dhi[2])};
+      const float move2 = all.move2;
+      const float c[3] = {0.5f * (all.lo[0] + all.hi[0]), 0.5f * (all.lo[1] + all.hi[1]),
+                          0.5f * (all.lo[2] + all.hi[2])};
       ownMove_.resize(n);
-      for (std::size_t k = 0; k < n; ++k) {  // (an upper bound: float rounding of the norm and of c's offset)
-        const float* d = move_.data() + 3 * k;
-        const float ex = d[0] - c[0], ey = d[1] - c[1], ez = d[2] - c[2];
-        ownMove_[k] = std::sqrt(ex * ex + ey * ey + ez * ez) * (1.0f + 1e-5f) + 1e-7f;
-        rel = std::max(rel, ownMove_[k]);
-      }
+      relMax_.assign(static_cast<std::size_t>(chunkCount(n)), 0.0f);
+      parallelChunks(n, [&](std::size_t first, std::size_t last, int chunk) {
+        float r = 0.0f;
+        for (std::size_t k = first; k < last; ++k) {  // (an upper bound: float rounding of the norm and of c's offset)
+          const float* d = move_.data() + 3 * k;
+          const float ex = d[0] - c[0], ey = d[1] - c[1], ez = d[2] - c[2];
+          ownMove_[k] = std::sqrt(ex * ex + ey * ey + ez * ez) * (1.0f + 1e-5f) + 1e-7f;
+          r = std::max(r, ownMove_[k]);
+        }
+        relMax_[static_cast<std::size_t>(chunk)] = r;
+      });
+      float rel = 0.0f;
+      for (const float r : relMax_) rel = std::max(rel, r);
       lastMaxMove_ = static_cast<double>(std::sqrt(move2)) * (1.0 + 1e-5) + 1e-7;
       lists_.advance(static_cast<double>(rel), ownMove_.data());
       for (NearScratch& ns : scratch_) {
@@ -919,6 +940,15 @@ class ShapeModel final : public Model {
   std::vector<std::uint32_t> mdeNear_;
   std::vector<std::uint8_t> mdeCount_;
   std::vector<float> move_;     // by sorted position: the move of this step (x, y, z)
+  // per chunk: the bounding box of this step's moves and the largest squared move (min and max: the same
+  // for any split), a cache line each
+  struct alignas(64) MoveBox {
+    float lo[3] = {kInf, kInf, kInf}, hi[3] = {-kInf, -kInf, -kInf};
+    float move2 = 0.0f;
+  };
+  static constexpr float kInf = std::numeric_limits<float>::infinity();
+  std::vector<MoveBox> moveBox_;
+  std::vector<float> relMax_;   // per chunk: the largest relative move
   std::vector<float> ownMove_;  // by sorted position: the move of this step relative to all (near lists)
   float cellHint_ = 0.0f;     // the grid's smallest cell from the last step's K-th distances (checkpointed)
   std::vector<std::uint8_t> movedFlag_;
