@@ -649,3 +649,89 @@ TEST_CASE("Fast marching: start values and order are checked", "[fields]") {
   CHECK(C.at(7, 7, 7) == 0.25f);
   CHECK(C.at(6, 7, 7) <= 0.25f + 0.125f + 1e-6f);
 }
+
+TEST_CASE("Fast marching, first order: the waves give the heap's values bit for bit, at any thread count", "[fields]") {
+  // the waves (the default at order 1) and the heap (FastMarchingInput::heap) solve the same upwind equations;
+  // compared byte for byte on inputs that exercise every rule: random costs over two orders of magnitude,
+  // zero costs, impassable cells, a sealed-off pocket, several goals (one inside an obstacle), start values
+  // (one on an impassable cell), anisotropic cells, a grid one cell thick
+  ThreadCountGuard guard;
+  struct Case {
+    const char* name;
+    FastMarchingInput in;
+  };
+  std::vector<Case> cases;
+  {
+    const GridSpec spec = GridSpec::covering(Vec3d(0, 0, 0), Vec3d(1, 1, 1), {48, 48, 48});
+    FastMarchingInput in = uniformInput(spec, 1.0f);
+    in.goal[spec.index(14, 19, 26)] = 1;
+    cases.push_back({"point, uniform cost", in});
+  }
+  {
+    const GridSpec spec = GridSpec::covering(Vec3d(-1, 0, 0), Vec3d(2, 1, 0.5), {61, 37, 23});
+    FastMarchingInput in = uniformInput(spec, 1.0f);
+    Lcg rng{42};
+    for (float& c : in.cost) {
+      const double u = rng.uniform(0.0, 1.0);
+      c = u < 0.12 ? kInf : u < 0.15 ? 0.0f : static_cast<float>(std::exp(rng.uniform(std::log(0.1), std::log(10.0))));
+    }
+    // a pocket sealed off by impassable walls: it stays at +inf
+    for (int k = 2; k <= 8; ++k)
+      for (int j = 2; j <= 8; ++j)
+        for (int i = 40; i <= 46; ++i) {
+          const bool wall = k == 2 || k == 8 || j == 2 || j == 8 || i == 40 || i == 46;
+          in.cost[spec.index(i, j, k)] = wall ? kInf : 1.0f;
+        }
+    in.goal[spec.index(3, 30, 4)] = 1;
+    in.goal[spec.index(55, 5, 20)] = 1;
+    in.cost[spec.index(20, 20, 10)] = kInf;
+    in.goal[spec.index(20, 20, 10)] = 1;  // a goal inside an obstacle
+    cases.push_back({"random costs, obstacles, three goals", in});
+    in.start.assign(spec.size(), std::numeric_limits<float>::quiet_NaN());
+    for (int s = 0; s < 300; ++s) {
+      const auto c = static_cast<std::size_t>(rng.uniform(0.0, static_cast<double>(spec.size())));
+      in.start[c] = static_cast<float>(rng.uniform(0.0, 0.8));
+    }
+    in.cost[spec.index(30, 10, 10)] = kInf;
+    in.start[spec.index(30, 10, 10)] = 0.05f;  // a start value on an impassable cell
+    cases.push_back({"random costs and start values", in});
+  }
+  {
+    const GridSpec spec = GridSpec::covering(Vec3d(0, 0, 0), Vec3d(4, 3, 0.1), {80, 60, 1});
+    FastMarchingInput in = uniformInput(spec, 1.0f);
+    Lcg rng{7};
+    for (float& c : in.cost) c = static_cast<float>(rng.uniform(0.5, 2.0));
+    for (int j = 0; j < 50; ++j) in.cost[spec.index(40, j, 0)] = kInf;  // a wall with a gap
+    in.goal[spec.index(10, 10, 0)] = 1;
+    cases.push_back({"one cell thick, a wall", in});
+  }
+  int paths[4] = {0, 0, 0, 0};
+  for (const Case& c : cases) {
+    INFO(c.name);
+    FastMarchingInput heapIn = c.in;
+    heapIn.heap = true;
+    swarmsim::setThreadCount(1);
+    const Grid3<float> heap = swarmsim::fastMarching(heapIn);
+    std::size_t finite = 0;
+    for (const float v : heap.data) finite += std::isfinite(v) ? 1 : 0;
+    CHECK(finite > heap.data.size() / 2);  // the front went far
+    CHECK((finite < heap.data.size() || c.in.cost[0] == 1.0f));
+    for (const int threads : {1, 2, 3}) {
+      swarmsim::setThreadCount(threads);
+      swarmsim::FastMarchingReport report;
+      const Grid3<float> waves = swarmsim::fastMarching(c.in, &report);
+      paths[!report.waved ? 0 : report.handedOver ? 1 : report.banded ? 2 : 3] += 1;
+      std::size_t differ = 0;
+      for (std::size_t i = 0; i < heap.data.size(); ++i) {
+        differ += std::memcmp(&heap.data[i], &waves.data[i], sizeof(float)) != 0 ? 1 : 0;
+      }
+      INFO(threads << " threads: " << differ << " cells differ");
+      CHECK(differ == 0);
+    }
+  }
+  // every way through: the heap alone (one thread, many sources), waves handing over to the heap (one thread,
+  // cells lowered again), waves with a band (more threads, cells lowered again), waves alone (a point goal)
+  INFO("heap alone, handed over, band, waves alone: " << paths[0] << ", " << paths[1] << ", " << paths[2] << ", "
+                                                      << paths[3]);
+  CHECK((paths[0] > 0 && paths[1] > 0 && paths[2] > 0 && paths[3] > 0));
+}

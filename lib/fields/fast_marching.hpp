@@ -33,13 +33,23 @@ struct FastMarchingInput {
   // 1: first-order upwind differences; 2: second order where the two cells upwind along an axis are
   // accepted and decrease toward the front (Sethian 1999), first order elsewhere
   int order = 1;
+  // order 1 by the heap (serial) instead of the waves: the same values (a reference for tests and timings)
+  bool heap = false;
+};
+
+// how fastMarching went (for tests and timings)
+struct FastMarchingReport {
+  bool waved = false;       // by waves (else by the heap alone)
+  int waves = 0;            // how many
+  bool banded = false;      // the waves took a band of values
+  bool handedOver = false;  // the waves handed over to the heap
 };
 
 // C per cell; cells that cannot be reached from a goal (sealed off, or impassable) are +inf.
 // A goal cell gets C = 0 even if its cost is +inf (a goal may be an obstacle, e.g. a target
 // building, which is then approached but not entered). Throws std::invalid_argument on
 // mismatched sizes, a negative or NaN cost, or a non-positive cell size.
-Grid3<float> fastMarching(const FastMarchingInput& input);
+Grid3<float> fastMarching(const FastMarchingInput& input, FastMarchingReport* report = nullptr);
 
 // eq. 8 per cell: −∇C/|∇C| · speed. Along each axis the derivative is the one-sided
 // difference toward the smaller finite neighbour, if it is smaller than the cell (upwind),
