@@ -16,7 +16,7 @@
 //          exact C = |x - c| - 0.2
 // Output: {"case", "n", "order", "seconds" (median of REPEAT solves), "max_cells", "mean_cells", "method"}:
 // the largest and the mean |C - exact| over the cells outside the start values and goals, in cells; how the
-// solve went (FastMarchingReport: "heap", "waves", "waves+band" or "waves+heap", and the number of waves).
+// solve went (FastMarchingReport: "heap", "waves" or "waves+heap", and the number of waves).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -103,10 +103,7 @@ int main(int argc, char** argv) {
           sumErr += e;
           ++count;
         }
-    const char* method = !report.waved       ? "heap"
-                         : report.handedOver ? "waves+heap"
-                         : report.banded     ? "waves+band"
-                                             : "waves";
+    const char* method = !report.waved ? "heap" : report.handedOver ? "waves+heap" : "waves";
     std::printf(
         "{\"case\": \"%s\", \"n\": %d, \"order\": %d, \"seconds\": %.6f, \"max_cells\": %.6f, \"mean_cells\": %.6f, "
         "\"method\": \"%s\", \"waves\": %d}\n",

@@ -73,6 +73,33 @@ void parallelForBalanced(std::size_t n, std::size_t chunk, F&& body) {
   }
 }
 
+// A team of threads kept for a sequence of short loops, without a fork and a join for each (parallelTeam):
+// every thread runs body(team), and every thread must reach each of the team's calls, in the same order.
+struct Team {
+  // as parallelForDynamic; then every thread waits for the others
+  template <typename F>
+  void forDynamic(std::size_t n, std::size_t chunk, F&& body) const {
+    const auto count = static_cast<long long>(n);
+    const int c = static_cast<int>(chunk);
+#pragma omp for schedule(dynamic, c)
+    for (long long i = 0; i < count; ++i) body(static_cast<std::size_t>(i));
+  }
+  // f on one thread while the others wait for it
+  template <typename F>
+  void serial(F&& f) const {
+#pragma omp single
+    f();
+  }
+};
+template <typename F>
+void parallelTeam(F&& body) {
+#pragma omp parallel
+  {
+    const Team team;
+    body(team);
+  }
+}
+
 // Split [0, n) into one contiguous chunk per thread, in index order, and call
 // body(begin, end, chunk) once per chunk (chunk < chunkCount(n)); for per-thread
 // partial results combined afterwards in chunk order. Small n: one chunk.

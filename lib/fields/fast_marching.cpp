@@ -1,6 +1,7 @@
 #include "fields/fast_marching.hpp"
 
 #include <algorithm>
+#include <bitset>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -17,11 +18,11 @@ namespace {
 constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr std::int32_t kFar = -1;    // not reached yet
 constexpr std::int32_t kKnown = -2;  // accepted, impassable or padding: never updated
-// the waves' band of values (marchWaves): its width in cells at the mean cost, and when it is taken
-constexpr double kBandCells = 1.0;
+// the waves (marchWaves) hand over to the heap once more than this share of the cells they lowered had a value
+// before, counted from this many lowered cells on
 constexpr double kRelowered = 0.6;
 constexpr std::size_t kFewSources = 64;
-constexpr std::size_t kBandAfter = 4096;
+constexpr std::size_t kHandOverAfter = 4096;
 
 // solver state of one cell of the padded grid (interleaved: a cell's neighbours' values and
 // its heap slot share cache lines)
@@ -179,40 +180,37 @@ inline float solveSelect(const double mIn[3], const double wt[3], const double r
 // accepted)
 template <typename Val>
 inline float upwindSolve(const Val& val, std::size_t p, double f, const std::size_t stride[3], const double w[3],
-                         const double rootW[3], bool second) {
+                         bool second) {
   // per axis: the value the difference is taken from (m_a, or (4 m_a − m'_a)/3 at second order) and the
-  // term's weight (w_a, or 9/4 w_a)
-  double m[3], wt[3], rw[3];
+  // term's weight (w_a, or 9/4 w_a); then sorted by value
+  double m[3], wt[3];
   for (int a = 0; a < 3; ++a) {
     const float lo = val(p - stride[a]), hi = val(p + stride[a]);
     const bool low = lo <= hi;
     const float m1 = low ? lo : hi;
     m[a] = static_cast<double>(m1);
     wt[a] = w[a];
-    rw[a] = rootW[a];
     if (second && m1 < kInf) {
       const float m2 = low ? val(p - 2 * stride[a]) : val(p + 2 * stride[a]);
       if (m2 <= m1) {  // accepted (finite) and decreasing toward the front
         m[a] = (4.0 * static_cast<double>(m1) - static_cast<double>(m2)) / 3.0;
         wt[a] = 2.25 * w[a];
-        rw[a] = std::sqrt(wt[a]);
       }
     }
   }
-  // sorted by value; one axis: C = m0 + f / sqrt(w0). Take in the next axis while C exceeds its value (with
-  // branches: along the heap's chain of dependent solves they cost less than computing every root)
   auto order = [&](int a, int b) {
     if (m[b] < m[a]) {
       std::swap(m[a], m[b]);
       std::swap(wt[a], wt[b]);
-      std::swap(rw[a], rw[b]);
     }
   };
   order(0, 1);
   order(1, 2);
   order(0, 1);
+  // one axis: C = m0 + f / sqrt(w0). Take in the next axis while C exceeds its value (solveSelect below
+  // without branches: along the heap's chain of dependent solves the branches cost less than every root)
   const double base = m[0];
-  double tau = f / rw[0];
+  double tau = f / std::sqrt(wt[0]);
   double sw = wt[0], swd = 0.0, swdd = 0.0;
   for (int a = 1; a < 3; ++a) {
     const double d = m[a] - base;
@@ -255,18 +253,17 @@ Grid3<float> marchHeap(const FastMarchingInput& input, const Grid3<float>* tenta
 
   // neighbour offsets, spacings h and weights w = 1/h^2
   const std::size_t stride[3] = {1, px, px * py};
-  double h[3], w[3], rootW[3];
+  double h[3], w[3];
   for (int a = 0; a < 3; ++a) {
     h[a] = spec.cell[a];
     w[a] = 1.0 / (h[a] * h[a]);
-    rootW[a] = std::sqrt(w[a]);
   }
   const bool second = input.order == 2;
 
   // the upwind update of cell p from its accepted neighbours
   const auto accepted = [&](std::size_t i) { return cells[i].val; };
   auto solve = [&](std::size_t p) -> float {
-    return upwindSolve(accepted, p, static_cast<double>(cells[p].cost), stride, w, rootW, second);
+    return upwindSolve(accepted, p, static_cast<double>(cells[p].cost), stride, w, second);
   };
 
   // the heap holds the front: room for a few layers of cells, grown if needed
@@ -348,10 +345,12 @@ Grid3<float> marchHeap(const FastMarchingInput& input, const Grid3<float>* tenta
 // First order by waves (the header). The cells are stored in bricks of 4 × 4 × 4 (x fastest inside a brick,
 // then y, then z; the bricks in x, y, z order), so that one 64-bit word holds a brick's bits of a set and the
 // cells a wave touches share cache lines; one layer of bricks of padding (never lowered, at +inf) all round
-// means every cell of the grid has its six neighbours. A wave takes the bricks with a cell lowered by the last
-// wave and their six neighbours; each brick (one thread) solves its cells next to a lowered cell lower than
-// themselves from the values before the wave, then each brick puts its lowered values in. No value depends on
-// the threads or on the order of the bricks.
+// means every cell of the grid has its six neighbours. A wave takes the bricks with a trigger (a cell lowered
+// by the last wave) and their six neighbours; each brick (one thread) solves its cells next to a trigger lower
+// than themselves from the values before the wave, then each brick puts its lowered values in. No value
+// depends on the threads or on the order of the bricks. When most of the lowered cells had a value before (the
+// step count orders the cells badly: extended or uneven sources, obstacles), the heap does the rest from the
+// values so far.
 Grid3<float> marchWaves(const FastMarchingInput& input, FastMarchingReport& report) {
   const GridSpec& spec = input.spec;
   const int nx = spec.n[0], ny = spec.n[1], nz = spec.n[2];
@@ -365,22 +364,27 @@ Grid3<float> marchWaves(const FastMarchingInput& input, FastMarchingReport& repo
                z = static_cast<std::size_t>(k) + 4;
     return (((z >> 2) * nb[1] + (y >> 2)) * nb[0] + (x >> 2)) * 64 + (z & 3) * 16 + (y & 3) * 4 + (x & 3);
   };
-  // the neighbour below (side 0) or above (side 1) cell p along axis a: inside its brick, or across to the next
+  // the offsets of each brick cell's neighbours below (side 0) and above (side 1) along x, y, z: inside the
+  // brick, or across to the next one
   static constexpr unsigned kShift[3] = {0, 2, 4};
-  const auto neighbour = [&](std::size_t p, int a, int side) {
-    const std::size_t one = std::size_t{1} << kShift[a], local = (p >> kShift[a]) & 3;
-    const std::size_t jump = 64 * brickStride[a] - 4 * one;  // to the next brick, less the step inside
-    if (side == 0) return p - one - jump * static_cast<std::size_t>(local == 0);
-    return p + one + jump * static_cast<std::size_t>(local == 3);
-  };
+  std::ptrdiff_t offset[3][2][64];
+  for (int a = 0; a < 3; ++a)
+    for (std::size_t l = 0; l < 64; ++l) {
+      const auto one = static_cast<std::ptrdiff_t>(std::size_t{1} << kShift[a]);
+      const auto jump = static_cast<std::ptrdiff_t>(64 * brickStride[a]) - 4 * one;
+      const std::size_t local = (l >> kShift[a]) & 3;
+      offset[a][0][l] = -one - (local == 0 ? jump : 0);
+      offset[a][1][l] = one + (local == 3 ? jump : 0);
+    }
+  // masks of the cells whose neighbour below / above along x, y, z is in the same brick's first / last layer
+  constexpr std::uint64_t kLow[3] = {0x1111111111111111ull, 0x000f000f000f000full, 0x000000000000ffffull};
+  constexpr std::uint64_t kHigh[3] = {0x8888888888888888ull, 0xf000f000f000f000ull, 0xffff000000000000ull};
   std::vector<float> val(cells, kInf), cost(cells, kInf), next(cells, kInf);
   std::vector<std::uint64_t> open(bricks, 0);     // may be lowered: in the grid, passable, no start value or goal
-  std::vector<std::uint64_t> pending(bricks, 0);  // lowered, not yet passed on (at first: goals and start values)
-  std::vector<std::uint64_t> trigger(bricks, 0);  // passed on in this wave
+  std::vector<std::uint64_t> trigger(bricks, 0);  // lowered by the last wave (at first: goals and start values)
   std::vector<std::uint64_t> lowered(bricks, 0);  // by this wave
-  std::vector<std::uint32_t> listedA(bricks, 0), listedP(bricks, 0);  // the last wave that listed the brick
-  double costSum = 0.0;
-  std::size_t costCount = 0;
+  std::vector<std::uint32_t> listed(bricks, 0);   // the last wave that listed the brick
+  float lowest = kInf;                            // the smallest trigger value
   for (int k = 0; k < nz; ++k)
     for (int j = 0; j < ny; ++j)
       for (int i = 0; i < nx; ++i) {
@@ -391,13 +395,10 @@ Grid3<float> marchWaves(const FastMarchingInput& input, FastMarchingReport& repo
         const float start = input.start.empty() || goal ? kInf : input.start[c];
         if (goal || start < kInf) {
           val[p] = goal ? 0.0f : start;
-          pending[p >> 6] |= bit;
+          trigger[p >> 6] |= bit;
+          lowest = std::min(lowest, val[p]);
         } else if (std::isfinite(cost[p])) {
           open[p >> 6] |= bit;
-        }
-        if (cost[p] > 0.0f && cost[p] < kInf) {
-          costSum += static_cast<double>(cost[p]);
-          ++costCount;
         }
       }
   double w[3], rootW[3];
@@ -405,227 +406,130 @@ Grid3<float> marchWaves(const FastMarchingInput& input, FastMarchingReport& repo
     w[a] = 1.0 / (spec.cell[a] * spec.cell[a]);
     rootW[a] = std::sqrt(w[a]);
   }
-  const double hMin = std::min({spec.cell[0], spec.cell[1], spec.cell[2]});
-  // the band: none at first (every pending cell passes its value on in the next wave: the waves follow the
-  // number of steps from the sources, which orders the cells by value when the sources are points); a cell's
-  // step at the mean cost once more than kRelowered of the lowered cells had a value before (the sources are
-  // extended and the step count orders the cells badly). A speed choice only: no value depends on it.
-  const float narrow =
-      static_cast<float>(kBandCells * hMin * (costCount > 0 ? costSum / static_cast<double>(costCount) : 1.0));
-  float band = kInf;
-  std::size_t loweredSum = 0, reloweredSum = 0;
-  bool toHeap = false;
-  // list brick b once in the list stamped `id`
-  const auto once = [&](std::vector<std::uint32_t>& stamp, std::uint32_t id, std::size_t b,
-                        std::vector<std::uint32_t>& out) {
-    if (__atomic_exchange_n(&stamp[b], id, __ATOMIC_RELAXED) != id) out.push_back(static_cast<std::uint32_t>(b));
-  };
-  std::vector<std::uint32_t> waiting, active;  // the bricks with pending cells; with triggers and their neighbours
-  const auto threads = static_cast<std::size_t>(threadCount());
-  std::vector<std::vector<std::uint32_t>> listW(threads), partA(threads);
-  struct alignas(64) PerThread {  // (a cache line each)
-    float v = kInf;               // the smallest value waiting
-    std::size_t lowered = 0, relowered = 0;
-  };
-  std::vector<PerThread> least(threads);
-  float lowest = kInf;
-  for (std::size_t b = 0; b < bricks; ++b) {
-    if (pending[b] == 0) continue;
-    waiting.push_back(static_cast<std::uint32_t>(b));
-    for (std::uint64_t bits = pending[b]; bits != 0; bits &= bits - 1)
-      lowest = std::min(lowest, val[b * 64 + static_cast<std::size_t>(__builtin_ctzll(bits))]);
-  }
-  // the offsets of each brick cell's neighbours below and above along x, y, z
-  std::ptrdiff_t offset[3][2][64];
-  for (int a = 0; a < 3; ++a)
-    for (int side = 0; side < 2; ++side)
-      for (std::size_t l = 0; l < 64; ++l) {
-        const std::size_t inner = 64 * (1 + brickStride[0] + brickStride[1] + brickStride[2]) + l;  // a brick inside
-        offset[a][side][l] =
-            static_cast<std::ptrdiff_t>(neighbour(inner, a, side)) - static_cast<std::ptrdiff_t>(inner);
-      }
-  // masks of the cells whose neighbour below / above along x, y, z is in the same brick
-  constexpr std::uint64_t kLow[3] = {0x1111111111111111ull, 0x000f000f000f000full, 0x000000000000ffffull};
-  constexpr std::uint64_t kHigh[3] = {0x8888888888888888ull, 0xf000f000f000f000ull, 0xffff000000000000ull};
-  const auto forEach = [&](const std::vector<std::uint32_t>& bricksOf, auto&& body) {
-    if (bricksOf.size() < 8) {
-      for (std::size_t e = 0; e < bricksOf.size(); ++e) body(bricksOf[e]);
-    } else {
-      parallelForDynamic(bricksOf.size(), 16, [&](std::size_t e) { body(bricksOf[e]); });
-    }
-  };
-  const auto gather = [&](std::vector<std::vector<std::uint32_t>>& parts, std::vector<std::uint32_t>& out) {
-    out.clear();
-    for (auto& l : parts) {
-      out.insert(out.end(), l.begin(), l.end());
-      l.clear();
-    }
-  };
-  const auto takeLeast = [&]() {
-    float m = kInf;
-    for (PerThread& l : least) {
-      m = std::min(m, l.v);
-      l.v = kInf;
-    }
-    return m;
-  };
-  // the first wave: every source passes its value on
-  std::uint32_t listA = 1, listP = 1;  // the last lists' stamps
-  for (const std::uint32_t source : waiting) {
-    const std::size_t b = source;
-    trigger[b] = pending[b];
-    pending[b] = 0;
+  // the bricks of a wave: those with a trigger and their six neighbours, each listed once (stamped)
+  std::uint32_t wave = 1;
+  const auto list = [&](std::size_t b, std::vector<std::uint32_t>& out) {
     for (const std::size_t q :
          {b, b - 1, b + 1, b - brickStride[1], b + brickStride[1], b - brickStride[2], b + brickStride[2]}) {
-      once(listedA, listA, q, active);
+      if (__atomic_exchange_n(&listed[q], wave, __ATOMIC_RELAXED) != wave) out.push_back(static_cast<std::uint32_t>(q));
     }
-  }
-  waiting.clear();
-  bool direct = true;  // this wave's triggers and bricks came from the last wave's (no band)
-  for (;;) {
-    if (!direct) {
-      if (waiting.empty()) break;
-      // the pending cells below the band's top pass their values on in this wave; the others wait
-      const float top = lowest + band;
-      ++listA;
-      ++listP;
-      forEach(waiting, [&](std::size_t b) {
-        const auto self = static_cast<std::size_t>(threadIndex());
-        std::uint64_t go = 0;
-        float l = kInf;
-        for (std::uint64_t bits = pending[b]; bits != 0; bits &= bits - 1) {
-          const unsigned e = static_cast<unsigned>(__builtin_ctzll(bits));
-          const float v = val[b * 64 + e];
-          go |= static_cast<std::uint64_t>(v < top) << e;
-          l = std::min(l, v < top ? kInf : v);
-        }
-        least[self].v = std::min(least[self].v, l);
-        pending[b] &= ~go;
-        trigger[b] = go;
-        if (pending[b] != 0) once(listedP, listP, b, listW[self]);
-        if (go != 0) {
-          for (const std::size_t q :
-               {b, b - 1, b + 1, b - brickStride[1], b + brickStride[1], b - brickStride[2], b + brickStride[2]}) {
-            once(listedA, listA, q, partA[self]);
-          }
-        }
-      });
-      gather(partA, active);
-    } else if (active.empty()) {
-      break;
-    }
-    // the smallest trigger value: the smallest pending value (band), or the smallest lowered by the last wave
-    const float lowTrigger = lowest;
-    // the solves of the cells next to a trigger lower than themselves, from the values before the wave
-    forEach(active, [&](std::size_t b) {
-      if (open[b] == 0) return;
-      const auto self = static_cast<std::size_t>(threadIndex());
-      // per axis and side: the cells whose neighbour there is a trigger
-      std::uint64_t from[3][2];
-      const std::uint64_t own = trigger[b];
-      for (int a = 0; a < 3; ++a) {
-        const unsigned s = 1u << kShift[a], across = 3 * s;
-        from[a][0] = ((own << s) & ~kLow[a]) | ((trigger[b - brickStride[a]] >> across) & kLow[a]);
-        from[a][1] = ((own >> s) & ~kHigh[a]) | ((trigger[b + brickStride[a]] << across) & kHigh[a]);
-      }
-      const std::uint64_t cand =
-          open[b] & (from[0][0] | from[0][1] | from[1][0] | from[1][1] | from[2][0] | from[2][1]);
-      std::uint64_t low = 0;
-      // only through a lower trigger can a solve give less than before: a cell without a value yet is solved, a
-      // cell at or below every trigger is not, the others look at their triggers
-      std::uint64_t solve = 0, look = 0;
-      for (std::uint64_t bits = cand; bits != 0; bits &= bits - 1) {
-        const unsigned l = static_cast<unsigned>(__builtin_ctzll(bits));
-        const float vq = val[b * 64 + l];
-        solve |= static_cast<std::uint64_t>(vq == kInf) << l;
-        look |= static_cast<std::uint64_t>((vq > lowTrigger) & (vq < kInf)) << l;
-      }
-      for (std::uint64_t bits = look; bits != 0; bits &= bits - 1) {
-        const unsigned l = static_cast<unsigned>(__builtin_ctzll(bits));
-        const std::size_t q = b * 64 + l;
-        const float vq = val[q];
-        bool lower = false;
-        for (int a = 0; a < 3; ++a) {
-          lower |= (((from[a][0] >> l) & 1) != 0) & (vq > val[q + offset[a][0][l]]);
-          lower |= (((from[a][1] >> l) & 1) != 0) & (vq > val[q + offset[a][1][l]]);
-        }
-        solve |= static_cast<std::uint64_t>(lower) << l;
-      }
-      std::uint64_t known = 0;  // had a value before
-      for (std::uint64_t bits = solve; bits != 0; bits &= bits - 1) {
-        const unsigned l = static_cast<unsigned>(__builtin_ctzll(bits));
-        const std::size_t q = b * 64 + l;
-        known |= static_cast<std::uint64_t>(val[q] < kInf) << l;
-        double m[3];
-        for (int a = 0; a < 3; ++a)
-          m[a] = static_cast<double>(std::min(val[q + offset[a][0][l]], val[q + offset[a][1][l]]));
-        const float t = solveSelect(m, w, rootW, static_cast<double>(cost[q]));
-        next[q] = t;  // (read only where lowered)
-        low |= static_cast<std::uint64_t>(t < val[q]) << l;
-      }
-      lowered[b] = low;
-      least[self].lowered += static_cast<std::size_t>(__builtin_popcountll(low));
-      least[self].relowered += static_cast<std::size_t>(__builtin_popcountll(low & known));
-    });
-    if (band == kInf) {
-      for (PerThread& t : least) {
-        loweredSum += t.lowered;
-        reloweredSum += t.relowered;
-        t.lowered = t.relowered = 0;
-      }
-      // most of the lowered cells had a value before (the step count orders the cells badly): on one thread the
-      // heap does the rest (it solves each cell about as often as the band does, at less cost per solve), on more
-      // the band
-      const double share =
-          static_cast<double>(reloweredSum) / static_cast<double>(std::max<std::size_t>(loweredSum, 1));
-      if (loweredSum >= kBandAfter && share > kRelowered) {
-        band = narrow;
-        toHeap = threads == 1;
-      }
-    }
-    // put the lowered values in: they pass their values on in the next wave, or wait for the band
-    const bool nextDirect = band == kInf;
-    if (nextDirect) {
-      ++listA;
-    } else if (direct) {
-      ++listP;
-    }
-    forEach(active, [&](std::size_t b) {
-      const auto self = static_cast<std::size_t>(threadIndex());
-      const std::uint64_t low = lowered[b];
-      lowered[b] = 0;
-      float l = kInf;
-      for (std::uint64_t bits = low; bits != 0; bits &= bits - 1) {
-        const std::size_t q = b * 64 + static_cast<std::size_t>(__builtin_ctzll(bits));
-        val[q] = next[q];
-        l = std::min(l, next[q]);
-      }
-      least[self].v = std::min(least[self].v, l);
-      if (nextDirect) {
-        trigger[b] = low;
-        if (low != 0) {
-          for (const std::size_t q :
-               {b, b - 1, b + 1, b - brickStride[1], b + brickStride[1], b - brickStride[2], b + brickStride[2]}) {
-            once(listedA, listA, q, partA[self]);
-          }
-        }
+  };
+  std::vector<std::uint32_t> active;
+  for (std::size_t b = 0; b < bricks; ++b)
+    if (trigger[b] != 0) list(b, active);
+  const auto threads = static_cast<std::size_t>(threadCount());
+  struct alignas(64) PerThread {  // (a cache line each)
+    std::vector<std::uint32_t> listed;
+    float lowest = kInf;
+    std::size_t lowered = 0, relowered = 0;
+  };
+  std::vector<PerThread> part(threads);
+  std::size_t loweredSum = 0, reloweredSum = 0;
+  bool toHeap = false;
+  // one team of threads for all the waves (each is two short loops): the shared state changes in `serial` only,
+  // between barriers, so every thread takes the same branches
+  parallelTeam([&](const Team& team) {
+    const auto forEach = [&](auto&& body) {
+      if (active.size() < 8) {
+        team.serial([&] {
+          for (const std::uint32_t b : active) body(b);
+        });
       } else {
-        trigger[b] = 0;
-        pending[b] |= low;
-        if (low != 0) once(listedP, listP, b, listW[self]);
+        team.forDynamic(active.size(), 16, [&](std::size_t e) { body(active[e]); });
       }
-    });
-    if (nextDirect) {
-      gather(partA, active);
-    } else {
-      gather(listW, waiting);
+    };
+    while (!active.empty()) {
+      const float lowTrigger = lowest;
+      // the solves of the cells next to a trigger lower than themselves, from the values before the wave
+      forEach([&](std::size_t b) {
+        if (open[b] == 0) return;
+        PerThread& mine = part[static_cast<std::size_t>(threadIndex())];
+        // per axis and side: the cells whose neighbour there is a trigger
+        std::uint64_t from[3][2];
+        const std::uint64_t own = trigger[b];
+        for (int a = 0; a < 3; ++a) {
+          const unsigned s = 1u << kShift[a], across = 3 * s;
+          from[a][0] = ((own << s) & ~kLow[a]) | ((trigger[b - brickStride[a]] >> across) & kLow[a]);
+          from[a][1] = ((own >> s) & ~kHigh[a]) | ((trigger[b + brickStride[a]] << across) & kHigh[a]);
+        }
+        const std::uint64_t cand =
+            open[b] & (from[0][0] | from[0][1] | from[1][0] | from[1][1] | from[2][0] | from[2][1]);
+        // only through a lower trigger can a solve give less than before: a cell without a value yet is solved, a
+        // cell at or below every trigger is not, the others look at their triggers
+        std::uint64_t solve = 0, look = 0;
+        for (std::uint64_t bits = cand; bits != 0; bits &= bits - 1) {
+          const unsigned l = static_cast<unsigned>(__builtin_ctzll(bits));
+          const float vq = val[b * 64 + l];
+          solve |= static_cast<std::uint64_t>(vq == kInf) << l;
+          look |= static_cast<std::uint64_t>((vq > lowTrigger) & (vq < kInf)) << l;
+        }
+        for (std::uint64_t bits = look; bits != 0; bits &= bits - 1) {
+          const unsigned l = static_cast<unsigned>(__builtin_ctzll(bits));
+          const std::size_t q = b * 64 + l;
+          const float vq = val[q];
+          bool lower = false;
+          for (int a = 0; a < 3; ++a) {
+            lower |= (((from[a][0] >> l) & 1) != 0) & (vq > val[q + offset[a][0][l]]);
+            lower |= (((from[a][1] >> l) & 1) != 0) & (vq > val[q + offset[a][1][l]]);
+          }
+          solve |= static_cast<std::uint64_t>(lower) << l;
+        }
+        std::uint64_t low = 0, known = 0;  // lowered; had a value before
+        for (std::uint64_t bits = solve; bits != 0; bits &= bits - 1) {
+          const unsigned l = static_cast<unsigned>(__builtin_ctzll(bits));
+          const std::size_t q = b * 64 + l;
+          known |= static_cast<std::uint64_t>(val[q] < kInf) << l;
+          double m[3];
+          for (int a = 0; a < 3; ++a)
+            m[a] = static_cast<double>(std::min(val[q + offset[a][0][l]], val[q + offset[a][1][l]]));
+          const float t = solveSelect(m, w, rootW, static_cast<double>(cost[q]));
+          next[q] = t;  // (read only where lowered)
+          low |= static_cast<std::uint64_t>(t < val[q]) << l;
+        }
+        lowered[b] = low;
+        mine.lowered += static_cast<std::size_t>(std::bitset<64>(low).count());
+        mine.relowered += static_cast<std::size_t>(std::bitset<64>(low & known).count());
+      });
+      team.serial([&] {
+        for (PerThread& t : part) {
+          loweredSum += t.lowered;
+          reloweredSum += t.relowered;
+          t.lowered = t.relowered = 0;
+        }
+        const double share =
+            static_cast<double>(reloweredSum) / static_cast<double>(std::max<std::size_t>(loweredSum, 1));
+        toHeap = loweredSum >= kHandOverAfter && share > kRelowered;
+        ++wave;
+      });
+      if (toHeap) break;
+      // put the lowered values in: they are the next wave's triggers
+      forEach([&](std::size_t b) {
+        PerThread& mine = part[static_cast<std::size_t>(threadIndex())];
+        const std::uint64_t low = lowered[b];
+        lowered[b] = 0;
+        trigger[b] = low;
+        float least = kInf;
+        for (std::uint64_t bits = low; bits != 0; bits &= bits - 1) {
+          const std::size_t q = b * 64 + static_cast<std::size_t>(__builtin_ctzll(bits));
+          val[q] = next[q];
+          least = std::min(least, next[q]);
+        }
+        mine.lowest = std::min(mine.lowest, least);
+        if (low != 0) list(b, mine.listed);
+      });
+      team.serial([&] {
+        active.clear();
+        lowest = kInf;
+        for (PerThread& t : part) {
+          active.insert(active.end(), t.listed.begin(), t.listed.end());
+          t.listed.clear();
+          lowest = std::min(lowest, t.lowest);
+          t.lowest = kInf;
+        }
+        ++report.waves;
+      });
     }
-    direct = nextDirect;
-    lowest = takeLeast();
-    ++report.waves;
-    if (toHeap) break;
-  }
-  report.banded = band < kInf && !toHeap;
+  });
   report.handedOver = toHeap;
   Grid3<float> out(spec, kInf);
   parallelFor(static_cast<std::size_t>(nz), [&](std::size_t k) {
