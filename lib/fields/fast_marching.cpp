@@ -18,11 +18,13 @@ namespace {
 constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr std::int32_t kFar = -1;    // not reached yet
 constexpr std::int32_t kKnown = -2;  // accepted, impassable or padding: never updated
-// the waves (marchWaves) hand over to the heap once more than this share of the cells they lowered had a value
-// before, counted from this many lowered cells on
-constexpr double kRelowered = 0.6;
+// the waves (marchWaves) run from at most kFewSources source cells, and hand over to the heap after a wave of
+// at least kHandOverWave lowered cells more than kRelowered of which had a value before (once kHandOverAfter
+// cells have been lowered)
 constexpr std::size_t kFewSources = 64;
+constexpr double kRelowered = 0.6;
 constexpr std::size_t kHandOverAfter = 4096;
+constexpr std::size_t kHandOverWave = 1024;
 
 // solver state of one cell of the padded grid (interleaved: a cell's neighbours' values and
 // its heap slot share cache lines)
@@ -228,9 +230,8 @@ inline float upwindSolve(const Val& val, std::size_t p, double f, const std::siz
   return static_cast<float>(base + tau);
 }
 
-// the heap's march (any order). `tentative` (order 1 only; or null): values some cells are known not to exceed
-// (the waves' so far), entered as tentative values of the cells that are neither goals nor start values
-Grid3<float> marchHeap(const FastMarchingInput& input, const Grid3<float>* tentative = nullptr) {
+// the heap's march (any order)
+Grid3<float> marchHeap(const FastMarchingInput& input) {
   const GridSpec& spec = input.spec;
   const int nx = spec.n[0], ny = spec.n[1], nz = spec.n[2];
 
@@ -303,17 +304,6 @@ Grid3<float> marchHeap(const FastMarchingInput& input, const Grid3<float>* tenta
           enter(p, v);
         }
   }
-  if (tentative) {
-    for (int k = 0; k < nz; ++k)
-      for (int j = 0; j < ny; ++j)
-        for (int i = 0; i < nx; ++i) {
-          const std::size_t c = spec.index(i, j, k), p = paddedIndex(i, j, k);
-          const float v = tentative->data[c];
-          if (!(v < kInf) || input.goal[c] || (!fixedCell.empty() && fixedCell[p])) continue;
-          enter(p, v);
-        }
-  }
-
   // accept the smallest tentative value, then update its unaccepted neighbours
   while (!heap.empty()) {
     const std::uint64_t top = heap.pop();
@@ -424,7 +414,7 @@ Grid3<float> marchWaves(const FastMarchingInput& input, FastMarchingReport& repo
     std::size_t lowered = 0, relowered = 0;
   };
   std::vector<PerThread> part(threads);
-  std::size_t loweredSum = 0, reloweredSum = 0;
+  std::size_t loweredSum = 0;
   bool toHeap = false;
   // one team of threads for all the waves (each is two short loops): the shared state changes in `serial` only,
   // between barriers, so every thread takes the same branches
@@ -491,14 +481,15 @@ Grid3<float> marchWaves(const FastMarchingInput& input, FastMarchingReport& repo
         mine.relowered += static_cast<std::size_t>(std::bitset<64>(low & known).count());
       });
       team.serial([&] {
+        std::size_t waveLowered = 0, waveRelowered = 0;
         for (PerThread& t : part) {
-          loweredSum += t.lowered;
-          reloweredSum += t.relowered;
+          waveLowered += t.lowered;
+          waveRelowered += t.relowered;
           t.lowered = t.relowered = 0;
         }
-        const double share =
-            static_cast<double>(reloweredSum) / static_cast<double>(std::max<std::size_t>(loweredSum, 1));
-        toHeap = loweredSum >= kHandOverAfter && share > kRelowered;
+        loweredSum += waveLowered;
+        toHeap = loweredSum >= kHandOverAfter && waveLowered >= kHandOverWave &&
+                 static_cast<double>(waveRelowered) > kRelowered * static_cast<double>(waveLowered);
         ++wave;
       });
       if (toHeap) break;
@@ -531,12 +522,15 @@ Grid3<float> marchWaves(const FastMarchingInput& input, FastMarchingReport& repo
     }
   });
   report.handedOver = toHeap;
+  // (the heap from the start: with the waves' values as tentative ones its heap would hold every cell they
+  // reached, not just the front, and run slower than from the sources)
+  if (toHeap) return marchHeap(input);
   Grid3<float> out(spec, kInf);
   parallelFor(static_cast<std::size_t>(nz), [&](std::size_t k) {
     for (int j = 0; j < ny; ++j)
       for (int i = 0; i < nx; ++i) out.at(i, j, static_cast<int>(k)) = val[cellIndex(i, j, static_cast<int>(k))];
   });
-  return toHeap ? marchHeap(input, &out) : out;
+  return out;
 }
 
 }  // namespace
@@ -547,14 +541,12 @@ Grid3<float> fastMarching(const FastMarchingInput& input, FastMarchingReport* re
   FastMarchingReport& r = report ? *report : own;
   r = FastMarchingReport{};
   if (input.order != 1 || input.heap) return marchHeap(input);
-  // one thread: the waves only from a few source cells (a point goal), where they lower each cell once;
-  // from more the heap, which a wave that lowers cells again would hand over to anyway (after its set-up)
-  if (threadCount() == 1) {
-    std::size_t sources = 0;
-    for (std::size_t c = 0; c < input.goal.size() && sources <= kFewSources; ++c)
-      sources += input.goal[c] != 0 || (!input.start.empty() && input.start[c] < kInf) ? 1 : 0;
-    if (sources > kFewSources) return marchHeap(input);
-  }
+  // the waves only from a few source cells (a point goal), where they lower each cell about once; from more
+  // they lower cells again and again, and the heap is faster
+  std::size_t sources = 0;
+  for (std::size_t c = 0; c < input.goal.size() && sources <= kFewSources; ++c)
+    sources += input.goal[c] != 0 || (!input.start.empty() && input.start[c] < kInf) ? 1 : 0;
+  if (sources > kFewSources) return marchHeap(input);
   r.waved = true;
   return marchWaves(input, r);
 }
