@@ -407,6 +407,7 @@ Grid3<float> marchWaves(const FastMarchingInput& input, FastMarchingReport& repo
   std::vector<std::uint32_t> active;
   for (std::size_t b = 0; b < bricks; ++b)
     if (trigger[b] != 0) list(b, active);
+  ++wave;
   const auto threads = static_cast<std::size_t>(threadCount());
   struct alignas(64) PerThread {  // (a cache line each)
     std::vector<std::uint32_t> listed;
@@ -480,19 +481,6 @@ Grid3<float> marchWaves(const FastMarchingInput& input, FastMarchingReport& repo
         mine.lowered += static_cast<std::size_t>(std::bitset<64>(low).count());
         mine.relowered += static_cast<std::size_t>(std::bitset<64>(low & known).count());
       });
-      team.serial([&] {
-        std::size_t waveLowered = 0, waveRelowered = 0;
-        for (PerThread& t : part) {
-          waveLowered += t.lowered;
-          waveRelowered += t.relowered;
-          t.lowered = t.relowered = 0;
-        }
-        loweredSum += waveLowered;
-        toHeap = loweredSum >= kHandOverAfter && waveLowered >= kHandOverWave &&
-                 static_cast<double>(waveRelowered) > kRelowered * static_cast<double>(waveLowered);
-        ++wave;
-      });
-      if (toHeap) break;
       // put the lowered values in: they are the next wave's triggers
       forEach([&](std::size_t b) {
         PerThread& mine = part[static_cast<std::size_t>(threadIndex())];
@@ -509,6 +497,16 @@ Grid3<float> marchWaves(const FastMarchingInput& input, FastMarchingReport& repo
         if (low != 0) list(b, mine.listed);
       });
       team.serial([&] {
+        std::size_t waveLowered = 0, waveRelowered = 0;
+        for (PerThread& t : part) {
+          waveLowered += t.lowered;
+          waveRelowered += t.relowered;
+          t.lowered = t.relowered = 0;
+        }
+        loweredSum += waveLowered;
+        toHeap = loweredSum >= kHandOverAfter && waveLowered >= kHandOverWave &&
+                 static_cast<double>(waveRelowered) > kRelowered * static_cast<double>(waveLowered);
+        ++wave;
         active.clear();
         lowest = kInf;
         for (PerThread& t : part) {
@@ -519,6 +517,7 @@ Grid3<float> marchWaves(const FastMarchingInput& input, FastMarchingReport& repo
         }
         ++report.waves;
       });
+      if (toHeap) break;
     }
   });
   report.handedOver = toHeap;
