@@ -706,6 +706,24 @@ TEST_CASE("Fast marching, first order: the waves give the heap's values bit for 
     cases.push_back({"one cell thick, a wall", in});
   }
   int paths[3] = {0, 0, 0};
+  // the smallest grids: one cell (a goal), and no source at all (everything stays +inf)
+  std::vector<Case> tiny;
+  {
+    const GridSpec spec = GridSpec::covering(Vec3d(0, 0, 0), Vec3d(1, 1, 1), {1, 1, 1});
+    FastMarchingInput in = uniformInput(spec, 1.0f);
+    in.goal[0] = 1;
+    tiny.push_back({"one cell, a goal", in});
+    const GridSpec spec2 = GridSpec::covering(Vec3d(0, 0, 0), Vec3d(1, 1, 1), {5, 3, 2});
+    tiny.push_back({"no source", uniformInput(spec2, 1.0f)});
+  }
+  for (const Case& c : tiny) {
+    INFO(c.name);
+    FastMarchingInput heapIn = c.in;
+    heapIn.heap = true;
+    const Grid3<float> heap = swarmsim::fastMarching(heapIn), waves = swarmsim::fastMarching(c.in);
+    CHECK(sameBytes(heap, waves));
+    CHECK(waves.data[0] == (c.in.goal[0] ? 0.0f : kInf));
+  }
   for (const Case& c : cases) {
     INFO(c.name);
     FastMarchingInput heapIn = c.in;
