@@ -128,10 +128,10 @@ void validate(const FastMarchingInput& in) {
       throw std::invalid_argument("fastMarching: cost of cell " + std::to_string(i) + " is negative or NaN");
 }
 
-// the upwind update of a cell of cost f from, per axis, the value m[a] its difference is taken from, the
-// term's weight wt[a] and its square root rw[a] (m[a] = +inf: no known neighbour along a): the same arithmetic
-// for the heap and the waves. Without branches on the values (they would be mispredicted about as often as
-// not): the axes sorted by selects, every candidate root computed and the valid one selected.
+// the waves' upwind update of a cell of cost f from, per axis, the value m[a] its difference is taken from, the
+// term's weight wt[a] and its square root rw[a] (m[a] = +inf: no known neighbour along a): the heap's arithmetic
+// (upwindSolve below, first order) without branches on the values, which would be mispredicted about as often as
+// not: the axes sorted by selects, every candidate root computed and the valid one selected.
 inline double pick(bool c, double a, double b) {  // c ? a : b, by bit masks (no branch)
   std::uint64_t ua, ub;
   std::memcpy(&ua, &a, sizeof a);
@@ -338,9 +338,9 @@ Grid3<float> marchHeap(const FastMarchingInput& input) {
 // means every cell of the grid has its six neighbours. A wave takes the bricks with a trigger (a cell lowered
 // by the last wave) and their six neighbours; each brick (one thread) solves its cells next to a trigger lower
 // than themselves from the values before the wave, then each brick puts its lowered values in. No value
-// depends on the threads or on the order of the bricks. When most of the lowered cells had a value before (the
-// step count orders the cells badly: extended or uneven sources, obstacles), the heap does the rest from the
-// values so far.
+// depends on the threads or on the order of the bricks. After a wave most of whose lowered cells had a value
+// before (the step count orders the cells badly: extended or uneven sources, obstacles), the heap solves the
+// field afresh.
 Grid3<float> marchWaves(const FastMarchingInput& input, FastMarchingReport& report) {
   const GridSpec& spec = input.spec;
   const int nx = spec.n[0], ny = spec.n[1], nz = spec.n[2];

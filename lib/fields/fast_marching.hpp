@@ -25,12 +25,13 @@
 //   none. Both end at each cell's solve from its final upwind neighbours (a solve changes only
 //   through a neighbour below the cell, so no other cell needs solving). The waves follow the
 //   number of steps from the sources, which orders the cells by value from a point goal: there
-//   each cell is lowered once. Once most of the lowered cells had a value before (extended or
-//   uneven sources, obstacles), the heap takes over from the waves' values. The cells are kept
-//   in 4 × 4 × 4 bricks so that a wave's cells share cache lines.
-// On one thread the waves run only from at most 64 source cells (goal or start cells), else the
-// heap. Which solver runs depends on the thread count and the input; the tests check that the
-// values do not (at 1, 2 and 3 threads).
+//   each cell is lowered once. After a wave most of whose lowered cells had a value before
+//   (uneven costs, obstacles), the heap solves the field afresh. The cells are kept in
+//   4 × 4 × 4 bricks so that a wave's cells share cache lines.
+// The waves run only from at most 64 source cells (goal or start cells: a point goal), else the
+// heap: from extended sources the waves lower cells again and again (docs/performance.md). Which
+// solver runs depends on the input; the tests check that the values do not (at 1, 2 and 3
+// threads).
 #include <cstdint>
 #include <vector>
 
