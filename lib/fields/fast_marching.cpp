@@ -415,6 +415,9 @@ Grid3<float> marchWaves(const FastMarchingInput& input, FastMarchingReport& repo
     std::size_t lowered = 0, relowered = 0;
   };
   std::vector<PerThread> part(threads);
+  // room for every brick in each list: nothing is allocated inside the team (an exception could not leave it)
+  active.reserve(bricks);
+  for (PerThread& t : part) t.listed.reserve(bricks);
   std::size_t loweredSum = 0;
   bool toHeap = false;
   // one team of threads for all the waves (each is two short loops): the shared state changes in `serial` only,
