@@ -130,7 +130,7 @@ void validate(const FastMarchingInput& in) {
 
 // the waves' upwind update of a cell of cost f from, per axis, the value m[a] its difference is taken from, the
 // term's weight wt[a] and its square root rw[a] (m[a] = +inf: no known neighbour along a): the heap's arithmetic
-// (upwindSolve below, first order) without branches on the values, which would be mispredicted about as often as
+// (marchHeap's solve, first order) without branches on the values, which would be mispredicted about as often as
 // not: the axes sorted by selects, every candidate root computed and the valid one selected.
 inline double pick(bool c, double a, double b) {  // c ? a : b, by bit masks (no branch)
   std::uint64_t ua, ub;
@@ -178,58 +178,6 @@ inline float solveSelect(const double mIn[3], const double wt[3], const double r
   return static_cast<float>(base + pick(three, tau3, pick(two, tau2, tau1)));
 }
 
-// the heap's update of padded cell p of cost f from its accepted neighbours' values val(i) (+inf where not
-// accepted)
-template <typename Val>
-inline float upwindSolve(const Val& val, std::size_t p, double f, const std::size_t stride[3], const double w[3],
-                         bool second) {
-  // per axis: the value the difference is taken from (m_a, or (4 m_a − m'_a)/3 at second order) and the
-  // term's weight (w_a, or 9/4 w_a); then sorted by value
-  double m[3], wt[3];
-  for (int a = 0; a < 3; ++a) {
-    const float lo = val(p - stride[a]), hi = val(p + stride[a]);
-    const bool low = lo <= hi;
-    const float m1 = low ? lo : hi;
-    m[a] = static_cast<double>(m1);
-    wt[a] = w[a];
-    if (second && m1 < kInf) {
-      const float m2 = low ? val(p - 2 * stride[a]) : val(p + 2 * stride[a]);
-      if (m2 <= m1) {  // accepted (finite) and decreasing toward the front
-        m[a] = (4.0 * static_cast<double>(m1) - static_cast<double>(m2)) / 3.0;
-        wt[a] = 2.25 * w[a];
-      }
-    }
-  }
-  auto order = [&](int a, int b) {
-    if (m[b] < m[a]) {
-      std::swap(m[a], m[b]);
-      std::swap(wt[a], wt[b]);
-    }
-  };
-  order(0, 1);
-  order(1, 2);
-  order(0, 1);
-  // one axis: C = m0 + f / sqrt(w0). Take in the next axis while C exceeds its value (solveSelect below
-  // without branches: along the heap's chain of dependent solves the branches cost less than every root)
-  const double base = m[0];
-  double tau = f / std::sqrt(wt[0]);
-  double sw = wt[0], swd = 0.0, swdd = 0.0;
-  for (int a = 1; a < 3; ++a) {
-    const double d = m[a] - base;
-    if (!(tau > d)) break;  // also when m_a = +inf
-    const double nsw = sw + wt[a], nswd = swd + wt[a] * d, nswdd = swdd + wt[a] * d * d;
-    const double disc = nswd * nswd - nsw * (nswdd - f * f);
-    if (disc < 0.0) break;
-    const double t = (nswd + std::sqrt(disc)) / nsw;
-    if (!(t > d)) break;
-    tau = t;
-    sw = nsw;
-    swd = nswd;
-    swdd = nswdd;
-  }
-  return static_cast<float>(base + tau);
-}
-
 // the heap's march (any order)
 Grid3<float> marchHeap(const FastMarchingInput& input) {
   const GridSpec& spec = input.spec;
@@ -261,10 +209,57 @@ Grid3<float> marchHeap(const FastMarchingInput& input) {
   }
   const bool second = input.order == 2;
 
-  // the upwind update of cell p from its accepted neighbours
-  const auto accepted = [&](std::size_t i) { return cells[i].val; };
+  // the upwind update of cell p from its accepted neighbours (solveSelect above is its first order without
+  // branches: along the heap's chain of dependent solves the branches cost less than computing every root)
   auto solve = [&](std::size_t p) -> float {
-    return upwindSolve(accepted, p, static_cast<double>(cells[p].cost), stride, w, second);
+    // per axis: the value the difference is taken from (m_a, or (4 m_a − m'_a)/3 at second order) and the
+    // term's weight (w_a, or 9/4 w_a); then sorted by value
+    double m[3], wt[3];
+    for (int a = 0; a < 3; ++a) {
+      const float lo = cells[p - stride[a]].val, hi = cells[p + stride[a]].val;
+      const bool low = lo <= hi;
+      const float m1 = low ? lo : hi;
+      m[a] = static_cast<double>(m1);
+      wt[a] = w[a];
+      if (second && m1 < kInf) {
+        const float m2 = low ? cells[p - 2 * stride[a]].val : cells[p + 2 * stride[a]].val;
+        if (m2 <= m1) {  // accepted (finite) and decreasing toward the front
+          m[a] = (4.0 * static_cast<double>(m1) - static_cast<double>(m2)) / 3.0;
+          wt[a] = 2.25 * w[a];
+        }
+      }
+    }
+    auto order = [&](int a, int b) {
+      if (m[b] < m[a]) {
+        std::swap(m[a], m[b]);
+        std::swap(wt[a], wt[b]);
+      }
+    };
+    order(0, 1);
+    order(1, 2);
+    order(0, 1);
+    // one axis: C = m0 + f / sqrt(w0). Take in the next axis while C exceeds its value; in
+    // τ = C − m0, δ_a = m_a − m0 the equation Σ_a w_a (τ − δ_a)^2 = f^2 has the root
+    // τ = (Σ w δ + sqrt((Σ w δ)^2 − Σw (Σ w δ^2 − f^2))) / Σw. A negative discriminant or a
+    // root not above δ (rounding only) keeps the solution with fewer axes.
+    const double f = static_cast<double>(cells[p].cost);
+    const double base = m[0];
+    double tau = f / std::sqrt(wt[0]);
+    double sw = wt[0], swd = 0.0, swdd = 0.0;
+    for (int a = 1; a < 3; ++a) {
+      const double d = m[a] - base;
+      if (!(tau > d)) break;  // also when m_a = +inf
+      const double nsw = sw + wt[a], nswd = swd + wt[a] * d, nswdd = swdd + wt[a] * d * d;
+      const double disc = nswd * nswd - nsw * (nswdd - f * f);
+      if (disc < 0.0) break;
+      const double t = (nswd + std::sqrt(disc)) / nsw;
+      if (!(t > d)) break;
+      tau = t;
+      sw = nsw;
+      swd = nswd;
+      swdd = nswdd;
+    }
+    return static_cast<float>(base + tau);
   };
 
   // the heap holds the front: room for a few layers of cells, grown if needed
@@ -304,6 +299,7 @@ Grid3<float> marchHeap(const FastMarchingInput& input) {
           enter(p, v);
         }
   }
+
   // accept the smallest tentative value, then update its unaccepted neighbours
   while (!heap.empty()) {
     const std::uint64_t top = heap.pop();
