@@ -236,8 +236,7 @@ void NearLists::Slots::assign(std::size_t n, std::size_t capacity) {
   pos.assign(n * capacity, 0);
   len.assign(n, kNone);
   radius.assign(n, 0.0f);
-  movedAt.assign(n, 0.0);
-  own.assign(n, 0.0f);
+  moved.assign(n, 0.0);
 }
 
 void NearLists::reset(std::size_t n, std::size_t capacity, float skin) {
@@ -248,16 +247,19 @@ void NearLists::reset(std::size_t n, std::size_t capacity, float skin) {
   last_.assign(n, capacity);
   next_.assign(n, capacity);
   lastOwn_.assign(n, 0.0f);
+  lastLocal_.assign(n, 0.0f);
+  localReach_ = -1.0;
 }
 
-void NearLists::advance(double maxMove, const float* own) {
-  moved_ += maxMove;
+void NearLists::advance(double maxMove, const float* own, const float* local, double localReach) {
   lastMove_ = maxMove;
   if (own) {
     std::copy(own, own + n_, lastOwn_.begin());
   } else {
     std::fill(lastOwn_.begin(), lastOwn_.end(), static_cast<float>(maxMove));
   }
+  localReach_ = local ? localReach : -1.0;
+  if (local) std::copy(local, local + n_, lastLocal_.begin());
   if (!inPlace_) std::swap(last_, next_);
   inPlace_ = false;
 }
@@ -273,15 +275,14 @@ const std::uint32_t* NearLists::keep(std::uint32_t from, std::uint32_t k, const 
   const std::uint32_t* old = last_.pos.data() + static_cast<std::size_t>(from) * capacity_;
   if (inPlace_) {
     if (from != k) throw std::logic_error("NearLists::keep: a step in place with an insect moved");
-    last_.own[k] += lastOwn_[k];
+    last_.moved[k] += lastMoveBound(k, static_cast<double>(last_.radius[k]));
     return old;  // every sorted position is last step's: the list as it is
   }
   std::uint32_t* list = next_.pos.data() + static_cast<std::size_t>(k) * capacity_;
   for (std::size_t e = 0; e < m; ++e) list[e] = newPos[old[e]];  // near k: mostly in this core's cache
   next_.len[k] = static_cast<std::uint32_t>(m);
   next_.radius[k] = last_.radius[from];
-  next_.movedAt[k] = last_.movedAt[from];
-  next_.own[k] = last_.own[from] + lastOwn_[from];
+  next_.moved[k] = last_.moved[from] + lastMoveBound(from, static_cast<double>(last_.radius[from]));
   return list;
 }
 
@@ -321,8 +322,7 @@ const std::uint32_t* NearLists::build(std::uint32_t k, float r, const UniformGri
   std::copy(scratch.data(), scratch.data() + m, list);
   out.len[k] = static_cast<std::uint32_t>(m);
   out.radius[k] = r;
-  out.movedAt[k] = moved_;
-  out.own[k] = 0.0f;
+  out.moved[k] = 0.0;
   return list;
 }
 

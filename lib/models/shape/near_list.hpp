@@ -8,14 +8,26 @@
 // from last step's positions (the state's order) to this step's, which lie
 // near the insect's own, where an id would need a look-up anywhere in an
 // array indexed by id. A step asks for every insect within some radius ρ_i
-// now. Moves are measured against a translation common to every insect, a
-// different one each step (advance()): an offset x_j - x_i changes in a step
-// by d_j - d_i = (d_j - c) - (d_i - c), at most |d_i - c| + max_j |d_j - c|
-// for any c, so a swarm that travels together keeps its lists. Between the
-// build and now insect i moved at most S_i and every insect at most ΔS
-// (sums of those relative moves over the steps), so any insect within ρ_i
-// now was within ρ_i + S_i + ΔS then: the list still covers ρ_i while
-// ρ_i + S_i + ΔS <= R_i. Otherwise the list is built again from the grid, at
+// now. Moves are measured against a translation common to the insects near
+// insect i, a different one each step (advance()): an offset x_j - x_i changes
+// in a step by d_j - d_i = (d_j - c) - (d_i - c), at most |d_i - c| +
+// |d_j - c| for any c. Two bounds of that are kept for each insect:
+//   - global: c is the middle of every insect's move, and |d_j - c| is
+//     bounded by the largest of all (so a swarm that travels together keeps
+//     its lists);
+//   - local: the insects are binned by where they start the step into cubic
+//     blocks of edge b, c is the middle of the moves in the 3 x 3 x 3 blocks
+//     about insect i's, and |d_j - c| is bounded by the largest of those
+//     (half their bounding box's diagonal). Every insect j that ends the step
+//     within r of insect i started it within r + 2 max_j |d_j| of it, so in
+//     one of those blocks when r + 2 max_j |d_j| <= b: the local bound holds
+//     for a list of radius R_i <= b - 2 max_j |d_j| (it follows the swarm's
+//     turns and deformations, where the global one takes the whole swarm's).
+// Each step adds the smaller of the two that holds to the list's moves since
+// its build, M_i: any insect within ρ_i now was within ρ_i + M_i when the
+// list was built (backwards, step by step, it stays within R_i), so the list
+// still covers ρ_i while ρ_i + M_i <= R_i. Otherwise the list is built again
+// from the grid, at
 // R_i = ρ_i (1 + skin); one too long for its slot (capacity) is not kept, and
 // the grid's candidates serve that step only.
 //
@@ -64,12 +76,15 @@ class NearLists {
   // float slack), or a negative number when there is none.
   float coverage(std::uint32_t from) const {
     if (from == kNone || last_.len[from] == kNone) return -1.0f;
-    const double own = static_cast<double>(last_.own[from]) + static_cast<double>(lastOwn_[from]);
-    return static_cast<float>((static_cast<double>(last_.radius[from]) - (moved_ - last_.movedAt[from]) - own - 1e-6) /
-                              (1.0 + 1e-5));
+    const double r = static_cast<double>(last_.radius[from]);
+    return static_cast<float>((r - last_.moved[from] - lastMoveBound(from, r) - 1e-6) / (1.0 + 1e-5));
   }
-  // how far the insect of state index `from` moved last step (m, relative to that step's common translation)
-  float lastOwnMove(std::uint32_t from) const { return lastOwn_[from]; }
+  // how much the offset of the insect of state index `from` to any insect within r of it at the end of last step
+  // changed in that step at most (m): the smaller of the global and the local bound, where the local one holds
+  double lastMoveBound(std::uint32_t from, double r) const {
+    const double global = lastMove_ + static_cast<double>(lastOwn_[from]);
+    return r <= localReach_ ? std::min(global, static_cast<double>(lastLocal_[from])) : global;
+  }
   // keep the list of slot `from` for sorted insect k: its sorted positions now (newPos maps last step's
   // sorted position, the state index, to this step's), by ascending id, the insect itself left out
   const std::uint32_t* keep(std::uint32_t from, std::uint32_t k, const std::uint32_t* newPos, std::size_t& m);
@@ -93,24 +108,25 @@ class NearLists {
     return m == kNone ? nullptr : out.pos.data() + static_cast<std::size_t>(k) * capacity_;
   }
   // after a step in which sorted insect k moved own[k] (m) relative to a translation common to every insect,
-  // each no more than maxMove (nullptr: maxMove for every one; upper bounds of the exact values, float
-  // rounding included): this step's lists become last step's
-  void advance(double maxMove, const float* own = nullptr);
+  // each no more than maxMove (nullptr: maxMove for every one), and, where local is given, the offset of
+  // insect k to any insect within localReach of it at the end of the step changed by at most local[k] (upper
+  // bounds of the exact values, float rounding included): this step's lists become last step's
+  void advance(double maxMove, const float* own = nullptr, const float* local = nullptr, double localReach = -1.0);
 
  private:
   struct Slots {
     std::vector<std::uint32_t> pos;   // n × capacity: sorted positions
     std::vector<std::uint32_t> len;   // per slot: list length, or kNone
     std::vector<float> radius;        // per slot: R_i
-    std::vector<double> movedAt;      // per slot: moved_ when the list was built
-    std::vector<float> own;           // per slot: the insect's own relative moves since the build, but the last
+    std::vector<double> moved;        // per slot: M_i, the bounds of the steps since the build, but the last
     void assign(std::size_t n, std::size_t capacity);
   };
   std::size_t n_ = 0, capacity_ = 0;
   float skin_ = 0.3f;
-  double moved_ = 0.0;          // Σ of each step's largest (relative) move
-  std::vector<float> lastOwn_;  // by state index: each insect's relative move last step
-  double lastMove_ = 0.0;
+  std::vector<float> lastOwn_;    // by state index: each insect's relative move last step (global bound)
+  std::vector<float> lastLocal_;  // by state index: the local bound of last step
+  double lastMove_ = 0.0;         // last step's largest relative move (global bound)
+  double localReach_ = -1.0;      // the radius up to which last step's local bound holds
   bool inPlace_ = false;  // beginStep
   Slots last_, next_;
 };

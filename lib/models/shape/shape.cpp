@@ -21,6 +21,7 @@
 #include "models/field/mde.hpp"
 #include "models/params_util.hpp"
 #include "models/shape/assignment.hpp"
+#include "models/shape/move_bound.hpp"
 #include "models/shape/near_kernel.hpp"
 #include "models/shape/near_list.hpp"
 #include "models/shape/path.hpp"
@@ -196,12 +197,13 @@ class ShapeModel final : public Model {
     info["theta"] = p_.theta;
     info["neighbours"] = p_.neighbours;
     info["list_rebuilds"] = static_cast<double>(rebuilds_) / (steps * static_cast<double>(std::max<std::size_t>(1, speed_.size())));
+    info["ms_local"] = 1e3 * tLocal_ / steps;
     info["max_speed"] = p_.maxSpeed;
     return info;
   }
 
   void restartBenchTimers() override {
-    tInteraction_ = tForces_ = tMde_ = tGrid_ = tNoiseStep_ = 0.0;
+    tLocal_ = tInteraction_ = tForces_ = tMde_ = tGrid_ = tNoiseStep_ = 0.0;
     gridBuilds_ = rebuilds_ = timedSteps_ = keptSteps_ = 0;
   }
 
@@ -444,8 +446,7 @@ class ShapeModel final : public Model {
       float lastReach = 0.0f, guess = rAtt;
       if (known) {
         lastReach = reachLast_[from];
-        guess = std::min(
-            rAtt, lastReach + (static_cast<float>(lists_.lastMove()) + lists_.lastOwnMove(from)) * 1.001f + 1e-6f);
+        guess = std::min(rAtt, lastReach + static_cast<float>(lists_.lastMoveBound(from, lastReach)) * 1.001f + 1e-6f);
         // tighter, where last step kept its K nearest: the farthest of them now (K other insects, so the K
         // nearest now are no farther; the squared distance as gatherClassify computes it, the root with a
         // float slack)
@@ -703,7 +704,7 @@ class ShapeModel final : public Model {
       return kernel.hits() > 0 || nz > 0;
     };
     if (nearest) {
-      move_.resize(3 * n);
+      move_.resize(3 * n + 1);  // (+ 1: LocalMoveBound reads four floats at a time)
       moveBox_.assign(static_cast<std::size_t>(chunkCount(n)), MoveBox{});
     }
     parallelFor(n, [&](std::size_t k) {
@@ -757,9 +758,12 @@ class ShapeModel final : public Model {
         MoveBox box;
         for (std::size_t k = first; k < last; ++k) {
           const float* d = move_.data() + 3 * k;
+          const float p[3] = {sx[k], sy[k], sz[k]};
           for (int a = 0; a < 3; ++a) {
             box.lo[a] = std::min(box.lo[a], d[a]);
             box.hi[a] = std::max(box.hi[a], d[a]);
+            box.from[a] = std::min(box.from[a], p[a]);
+            box.to[a] = std::max(box.to[a], p[a]);
           }
           box.move2 = std::max(box.move2, d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
         }
@@ -770,6 +774,8 @@ class ShapeModel final : public Model {
         for (int a = 0; a < 3; ++a) {
           all.lo[a] = std::min(all.lo[a], b.lo[a]);
           all.hi[a] = std::max(all.hi[a], b.hi[a]);
+          all.from[a] = std::min(all.from[a], b.from[a]);
+          all.to[a] = std::max(all.to[a], b.to[a]);
         }
         all.move2 = std::max(all.move2, b.move2);
       }
@@ -791,7 +797,18 @@ class ShapeModel final : public Model {
       float rel = 0.0f;
       for (const float r : relMax_) rel = std::max(rel, r);
       lastMaxMove_ = static_cast<double>(std::sqrt(move2)) * (1.0 + 1e-5) + 1e-7;
-      lists_.advance(static_cast<double>(rel), ownMove_.data());
+      // and relative to the insects about each (move_bound.hpp), in blocks that take in most lists with a
+      // step's movement to spare; a swarm spread over more blocks than a quarter of its insects goes without
+      const double edge =
+          1.25 * (1.0 + static_cast<double>(lists_.skin())) * static_cast<double>(std::max({cellHint_, kh, mdReach})) +
+          2.0 * lastMaxMove_;
+      localMove_.resize(n);
+      const auto tl0 = Clock::now();
+      const bool local = localBound_.compute(n, sx, sy, sz, all.from, all.to, move_.data(), edge, lastMaxMove_,
+                                             n / 4 + 4096, localMove_.data());
+      tLocal_ += since(tl0);
+      lists_.advance(static_cast<double>(rel), ownMove_.data(), local ? localMove_.data() : nullptr,
+                     localBound_.reach());
       for (NearScratch& ns : scratch_) {
         rebuilds_ += ns.rebuilds;
         ns.rebuilds = 0;
@@ -945,11 +962,14 @@ class ShapeModel final : public Model {
   struct alignas(64) MoveBox {
     float lo[3] = {kInf, kInf, kInf}, hi[3] = {-kInf, -kInf, -kInf};
     float move2 = 0.0f;
+    float from[3] = {kInf, kInf, kInf}, to[3] = {-kInf, -kInf, -kInf};  // where the insects started
   };
   static constexpr float kInf = std::numeric_limits<float>::infinity();
   std::vector<MoveBox> moveBox_;
   std::vector<float> relMax_;   // per chunk: the largest relative move
   std::vector<float> ownMove_;  // by sorted position: the move of this step relative to all (near lists)
+  LocalMoveBound localBound_;   // and relative to the insects about it (near lists)
+  std::vector<float> localMove_;
   float cellHint_ = 0.0f;     // the grid's smallest cell from the last step's K-th distances (checkpointed)
   std::vector<std::uint8_t> movedFlag_;
   std::vector<float> err_, speed_, sortScratch_;
@@ -957,6 +977,7 @@ class ShapeModel final : public Model {
   std::size_t frameMoved_ = 0, frameAgentSteps_ = 0, timedSteps_ = 0;
   double tDistance_ = 0.0, tNoise_ = 0.0, tSampling_ = 0.0, tAssignment_ = 0.0;
   std::size_t rebuilds_ = 0;  // near lists built from the grid in the timed steps
+  double tLocal_ = 0.0;
   double tInteraction_ = 0.0, tForces_ = 0.0, tMde_ = 0.0, tGrid_ = 0.0, tNoiseStep_ = 0.0;
   // the grid's cells are kept across steps while the state stays in their order (see step)
   bool inGridOrder_ = false;
