@@ -235,3 +235,34 @@ TEST_CASE("near kernels: classifyCandidates and gatherClassify sort each candida
     }
   }
 }
+
+TEST_CASE("near kernels: farthestRow2 gives the scalar loop's squared distance on every lane set",
+          "[shape][near_kernel]") {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-2.0f, 2.0f);
+  const std::size_t n = 300;
+  std::vector<Vec3> pts(n);
+  for (Vec3& p : pts) p = Vec3(u(rng), u(rng), u(rng));
+  AlignedFloats store;
+  const float* rows = rowsOf(store, pts);
+  // pos: a permutation (sorted positions of last step's slots), prev: slots
+  std::vector<std::uint32_t> pos(n), prev(40);
+  for (std::size_t i = 0; i < n; ++i) pos[i] = static_cast<std::uint32_t>((i * 7 + 3) % n);
+  for (std::size_t m = 0; m <= prev.size(); ++m) {
+    for (int round = 0; round < 5; ++round) {
+      for (std::uint32_t& p : prev) p = static_cast<std::uint32_t>(rng() % n);
+      const Vec3 q(u(rng), u(rng), u(rng));
+      float expect = 0.0f;
+      for (std::size_t e = 0; e < m; ++e) {
+        const Vec3& p = pts[pos[prev[e]]];
+        const float dx = p.x() - q.x(), dy = p.y() - q.y(), dz = p.z() - q.z();
+        expect = std::max(expect, dx * dx + dy * dy + dz * dz);
+      }
+      for (const LaneSet lanes : swarmsim_test::laneSetsOfThisCpu()) {
+        CAPTURE(m, round, static_cast<int>(lanes));
+        const float got = farthestRow2(m, prev.data(), pos.data(), rows, n + 1, q, lanes);
+        REQUIRE(std::memcmp(&got, &expect, sizeof got) == 0);
+      }
+    }
+  }
+}

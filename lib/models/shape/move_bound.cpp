@@ -47,9 +47,10 @@ const LocalMoveBound::Box LocalMoveBound::kEmpty = {{kInf, kInf, kInf, kInf}, {-
 
 bool LocalMoveBound::compute(std::size_t n, const float* x, const float* y, const float* z, const float lo[3],
                              const float hi[3], const float* move, double edge, double maxMove, std::size_t maxBlocks,
-                             float* local) {
+                             float* local, const float* other, float otherAdd) {
   reach_ = -1.0;
   blocks_ = 0;
+  spent_ = spentLocal_ = 0;
   if (n == 0 || !(edge > 0.0) || !std::isfinite(edge)) return false;
   // blocks of edge `edge` from lo; block (i, j, l) at i + dims[0] (j + dims[1] l)
   std::size_t dims[3];
@@ -119,16 +120,33 @@ bool LocalMoveBound::compute(std::size_t n, const float* x, const float* y, cons
   }
   // each insect's bound: half the diagonal of its neighbourhood's box plus its own distance from the middle
   // (with a slack upward for the float rounding: the moves are below a metre, so it is below 1e-7 m)
-  parallelFor(n, [&](std::size_t k) {
-    const Box& m = tmp_[blockOf_[k]];
-    float half2 = 0.0f, own2 = 0.0f;
-    for (int a = 0; a < 3; ++a) {
-      const float w = m.hi[a] - m.lo[a], e = move[3 * k + a] - 0.5f * (m.lo[a] + m.hi[a]);
-      half2 += w * w;
-      own2 += e * e;
+  // (and the sums of the other bound and of the smaller of the two, in whole micrometres: integers, the same
+  // for any split)
+  sums_.assign(2 * chunks, 0);
+  parallelChunks(n, [&](std::size_t first, std::size_t last, int chunk) {
+    std::uint64_t spent = 0, spentLocal = 0;
+    for (std::size_t k = first; k < last; ++k) {
+      const Box& m = tmp_[blockOf_[k]];
+      float half2 = 0.0f, own2 = 0.0f;
+      for (int a = 0; a < 3; ++a) {
+        const float w = m.hi[a] - m.lo[a], e = move[3 * k + a] - 0.5f * (m.lo[a] + m.hi[a]);
+        half2 += w * w;
+        own2 += e * e;
+      }
+      local[k] = (0.5f * std::sqrt(half2) + std::sqrt(own2)) * (1.0f + 1e-5f) + 1e-7f;
+      if (other) {
+        const float o = other[k] + otherAdd;
+        spent += static_cast<std::uint64_t>(std::min(o, 1e6f) * 1e6f);
+        spentLocal += static_cast<std::uint64_t>(std::min({o, local[k], 1e6f}) * 1e6f);
+      }
     }
-    local[k] = (0.5f * std::sqrt(half2) + std::sqrt(own2)) * (1.0f + 1e-5f) + 1e-7f;
+    sums_[2 * static_cast<std::size_t>(chunk)] = spent;
+    sums_[2 * static_cast<std::size_t>(chunk) + 1] = spentLocal;
   });
+  for (std::size_t c = 0; c < chunks; ++c) {
+    spent_ += sums_[2 * c];
+    spentLocal_ += sums_[2 * c + 1];
+  }
   reach_ = edge * (1.0 - 1e-6) - 2.0 * maxMove;
   return true;
 }

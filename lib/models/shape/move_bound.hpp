@@ -28,9 +28,14 @@ class LocalMoveBound {
   // (move[3k], move[3k + 1], move[3k + 2]), none by more than maxMove (an upper bound); move holds 3 n + 1
   // floats (the last is read, not used). Blocks of edge `edge` (> 2 maxMove to be of use). Writes local[k]
   // for every k and returns true, or returns false (no bound this step) when the box spans more than
-  // maxBlocks blocks or is not finite.
+  // maxBlocks blocks or is not finite. With `other` (another bound, other[k] + otherAdd), gain() compares
+  // the two.
   bool compute(std::size_t n, const float* x, const float* y, const float* z, const float lo[3], const float hi[3],
-               const float* move, double edge, double maxMove, std::size_t maxBlocks, float* local);
+               const float* move, double edge, double maxMove, std::size_t maxBlocks, float* local,
+               const float* other = nullptr, float otherAdd = 0.0f);
+  // of the last compute with `other`: the sum over the insects of the other bound, divided by the sum of the
+  // smaller of the two (1 when the local bound is nowhere smaller; how much longer the lists last with it)
+  double gain() const { return spentLocal_ > 0 ? static_cast<double>(spent_) / static_cast<double>(spentLocal_) : 1.0; }
   // the radius up to which the last compute's local bounds hold (negative when none)
   double reach() const { return reach_; }
   // the last compute's blocks (a statistic)
@@ -43,6 +48,8 @@ class LocalMoveBound {
   static const Box kEmpty;
   double reach_ = -1.0;
   std::size_t blocks_ = 0;
+  std::uint64_t spent_ = 0, spentLocal_ = 0;  // (gain(): in micrometres)
+  std::vector<std::uint64_t> sums_;           // per chunk, the two
   std::vector<std::uint32_t> blockOf_;  // by insect
   std::vector<Box> perChunk_;           // chunk c's boxes at [c * blocks, (c + 1) * blocks)
   std::vector<Box> box_, tmp_;          // merged, then over the 3 x 3 x 3 blocks about each

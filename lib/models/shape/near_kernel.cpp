@@ -253,6 +253,35 @@ SWARMSIM_AVX __attribute__((flatten)) void zonalAvx(const NearScratch& s, std::s
 }
 #endif
 
+#if SWARMSIM_X86_LANES
+// farthestRow2 on eight AVX2 lanes (the lanes past m hold 0; the row offsets in 32 bits: pos < 2^28)
+SWARMSIM_AVX2 float farthestRow2Avx2(std::size_t m, const std::uint32_t* prev, const std::uint32_t* pos,
+                                     const float* rows, float qx, float qy, float qz) {
+  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256 vx = _mm256_set1_ps(qx), vy = _mm256_set1_ps(qy), vz = _mm256_set1_ps(qz);
+  __m256 best = _mm256_setzero_ps();
+  for (std::size_t e = 0; e < m; e += kLanes) {
+    const __m256i in = _mm256_cmpgt_epi32(_mm256_set1_epi32(static_cast<int>(std::min(m - e, kLanes))), lane);
+    const __m256i which = _mm256_maskload_epi32(reinterpret_cast<const int*>(prev + e), in);
+    const __m256i at =
+        _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), reinterpret_cast<const int*>(pos), which, in, 4);
+    const __m256i off = _mm256_slli_epi32(at, 3);  // kRowFloats floats a row
+    const __m256 inf = _mm256_castsi256_ps(in);
+    const __m256 x = _mm256_mask_i32gather_ps(vx, rows, off, inf, 4);
+    const __m256 y = _mm256_mask_i32gather_ps(vy, rows + 1, off, inf, 4);
+    const __m256 z = _mm256_mask_i32gather_ps(vz, rows + 2, off, inf, 4);
+    const __m256 dx = _mm256_sub_ps(x, vx), dy = _mm256_sub_ps(y, vy), dz = _mm256_sub_ps(z, vz);
+    const __m256 d2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
+    best = _mm256_max_ps(best, d2);
+  }
+  alignas(32) float l[kLanes];
+  _mm256_store_ps(l, best);
+  float far2 = 0.0f;
+  for (const float v : l) far2 = std::max(far2, v);
+  return far2;
+}
+#endif
+
 }  // namespace
 
 void NearScratch::reserve(std::size_t n) {
@@ -390,6 +419,24 @@ Vec3 zonalForce(std::size_t m, const ZoneLanes& z, NearScratch& s, bool avx) {
   zonalLanes<ScalarLanes>(s, mp, z, out);
 #endif
   return zonalResult(z, out);
+}
+
+float farthestRow2(std::size_t m, const std::uint32_t* prev, const std::uint32_t* pos, const float* rows,
+                   std::size_t count, const Vec3& q, LaneSet lanes) {
+#if SWARMSIM_X86_LANES
+  if ((lanes == LaneSet::kAvx2 || lanes == LaneSet::kAvx512) && m > 0 && count < (std::size_t{1} << 28)) {
+    return farthestRow2Avx2(m, prev, pos, rows, q.x(), q.y(), q.z());
+  }
+#else
+  (void)lanes;
+#endif
+  float far2 = 0.0f;
+  for (std::size_t e = 0; e < m; ++e) {
+    const float* row = rows + kRowFloats * std::size_t{pos[prev[e]]};
+    const float dx = row[0] - q.x(), dy = row[1] - q.y(), dz = row[2] - q.z();
+    far2 = std::max(far2, dx * dx + dy * dy + dz * dz);
+  }
+  return far2;
 }
 
 }  // namespace swarmsim

@@ -105,4 +105,10 @@ bool zonalFromRows(LaneSet lanes);
 Vec3 zonalForceRows(std::size_t m, std::uint32_t* js, const float* rows, std::uint32_t far, const Vec3& q,
                     const Vec3& v, const ZoneLanes& zones);
 
+// the largest squared distance from q of the rows at sorted positions pos[prev[0, m)], of `count` rows (rows
+// as gatherClassify reads them; the squared distance as it computes it, so the same bits on every lane set:
+// AVX2 gathers eight at a time, below 2^28 rows)
+float farthestRow2(std::size_t m, const std::uint32_t* prev, const std::uint32_t* pos, const float* rows,
+                   std::size_t count, const Vec3& q, LaneSet lanes);
+
 }  // namespace swarmsim

@@ -452,12 +452,7 @@ class ShapeModel final : public Model {
         // float slack)
         const std::uint32_t* prev = nearKept_ ? nearLast_.data() + std::size_t{from} * K : nullptr;
         if (prev && prev[0] != NearLists::kNone) {
-          float far2 = 0.0f;
-          for (std::size_t q = 0; q < K; ++q) {
-            const float* row = rows + kRowFloats * std::size_t{newPos_[prev[q]]};
-            const float dx = row[0] - qx, dy = row[1] - qy, dz = row[2] - qz;
-            far2 = std::max(far2, dx * dx + dy * dy + dz * dz);
-          }
+          const float far2 = farthestRow2(K, prev, newPos_.data(), rows, n + 1, Vec3(qx, qy, qz), lanes);
           guess = std::min(guess, std::sqrt(far2) * (1.0f + 1e-5f) + 1e-7f);
         }
       } else {
@@ -532,21 +527,22 @@ class ShapeModel final : public Model {
       for (std::size_t c = 0; c < std::min(mm, kMdeRoom); ++c) mdeNear_[k * kMdeRoom + c] = cand[ns.mdeIdx[c]];
       // F_int over the K nearest within r_att, in id order
       mk = keepSmallest(keys, mk, K);
-      if (keepNear) {  // their sorted positions, for the next step's bound (in slot k: its state index then)
+      // their sorted positions, and the farthest (the largest key)
+      std::uint64_t top = 0;
+      std::uint32_t* js = ns.chosen.data();  // (room for the candidates: gatherClassify)
+      for (std::size_t q = 0; q < mk; ++q) {
+        js[q] = ns.cj[keyIndex(keys[q])];
+        top = std::max(top, keys[q]);
+      }
+      if (keepNear) {  // for the next step's bound (in slot k: its state index then)
         std::uint32_t* next = nearNext_.data() + k * K;
         if (mk == K) {
-          for (std::size_t q = 0; q < K; ++q) next[q] = ns.cj[keyIndex(keys[q])];
+          std::copy(js, js + K, next);
         } else {
           next[0] = NearLists::kNone;
         }
       }
-      if (rowsZonal) {  // straight from their rows: their sorted positions, and the farthest (the largest key)
-        std::uint64_t top = 0;
-        std::uint32_t* js = ns.chosen.data();  // (room for the candidates: gatherClassify)
-        for (std::size_t q = 0; q < mk; ++q) {
-          js[q] = ns.cj[keyIndex(keys[q])];
-          top = std::max(top, keys[q]);
-        }
+      if (rowsZonal) {  // straight from their rows
         reach_[k] = mk == K ? std::sqrt(keyDistance2(top)) : rAtt;
         return zonalForceRows(mk, js, rows, static_cast<std::uint32_t>(n), Vec3(qx, qy, qz),
                               Vec3(vx_[k], vy_[k], vz_[k]), zoneLanes);
@@ -797,22 +793,36 @@ class ShapeModel final : public Model {
       float rel = 0.0f;
       for (const float r : relMax_) rel = std::max(rel, r);
       lastMaxMove_ = static_cast<double>(std::sqrt(move2)) * (1.0 + 1e-5) + 1e-7;
+      // the lists built this step (counts: the same for any thread count)
+      std::size_t built = 0;
+      for (NearScratch& ns : scratch_) {
+        built += ns.rebuilds;
+        ns.rebuilds = 0;
+      }
+      rebuilds_ += built;
+      builtRate_ = 0.9 * builtRate_ + 0.1 * static_cast<double>(built);  // (lists are built in waves: smoothed)
       // and relative to the insects about each (move_bound.hpp), in blocks that take in most lists with a
-      // step's movement to spare; a swarm spread over more blocks than a quarter of its insects goes without
+      // step's movement to spare; a swarm spread over more blocks than a quarter of its insects goes without.
+      // Worth its cost where it saves lists: a list built costs about 30 times what the bound costs an insect
+      // (instruction counts), and with it the lists last gain() times as long. Where it saved less than its
+      // cost this step (a swarm still gathering from all sides), the next 15 steps go without it (speed only)
       const double edge =
           1.25 * (1.0 + static_cast<double>(lists_.skin())) * static_cast<double>(std::max({cellHint_, kh, mdReach})) +
           2.0 * lastMaxMove_;
       localMove_.resize(n);
       const auto tl0 = Clock::now();
-      const bool local = localBound_.compute(n, sx, sy, sz, all.from, all.to, move_.data(), edge, lastMaxMove_,
-                                             n / 4 + 4096, localMove_.data());
+      bool local = false;
+      if (localPause_ > 0) {
+        --localPause_;
+      } else {
+        local = localBound_.compute(n, sx, sy, sz, all.from, all.to, move_.data(), edge, lastMaxMove_, n / 4 + 4096,
+                                    localMove_.data(), ownMove_.data(), rel);
+        const double saved = builtRate_ * (localBound_.gain() - 1.0);  // lists a step, about
+        if (!local || 30.0 * saved < static_cast<double>(n)) localPause_ = 15;
+      }
       tLocal_ += since(tl0);
       lists_.advance(static_cast<double>(rel), ownMove_.data(), local ? localMove_.data() : nullptr,
                      localBound_.reach());
-      for (NearScratch& ns : scratch_) {
-        rebuilds_ += ns.rebuilds;
-        ns.rebuilds = 0;
-      }
     }
     tMde_ += since(t0);
     s.swapStorage(next_);
@@ -970,6 +980,8 @@ class ShapeModel final : public Model {
   std::vector<float> ownMove_;  // by sorted position: the move of this step relative to all (near lists)
   LocalMoveBound localBound_;   // and relative to the insects about it (near lists)
   std::vector<float> localMove_;
+  int localPause_ = 0;        // steps to go without the local bound (it saved less than it cost)
+  double builtRate_ = 0.0;    // lists built a step, smoothed
   float cellHint_ = 0.0f;     // the grid's smallest cell from the last step's K-th distances (checkpointed)
   std::vector<std::uint8_t> movedFlag_;
   std::vector<float> err_, speed_, sortScratch_;
