@@ -754,14 +754,20 @@ class ShapeModel final : public Model {
         MoveBox box;
         for (std::size_t k = first; k < last; ++k) {
           const float* d = move_.data() + 3 * k;
-          const float p[3] = {sx[k], sy[k], sz[k]};
           for (int a = 0; a < 3; ++a) {
             box.lo[a] = std::min(box.lo[a], d[a]);
             box.hi[a] = std::max(box.hi[a], d[a]);
-            box.from[a] = std::min(box.from[a], p[a]);
-            box.to[a] = std::max(box.to[a], p[a]);
           }
           box.move2 = std::max(box.move2, d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        }
+        if (localPause_ == 0) {  // where the insects started (for the local bound)
+          for (std::size_t k = first; k < last; ++k) {
+            const float p[3] = {sx[k], sy[k], sz[k]};
+            for (int a = 0; a < 3; ++a) {
+              box.from[a] = std::min(box.from[a], p[a]);
+              box.to[a] = std::max(box.to[a], p[a]);
+            }
+          }
         }
         moveBox_[static_cast<std::size_t>(chunk)] = box;
       });
