@@ -27,9 +27,8 @@
 // its build, M_i: any insect within ρ_i now was within ρ_i + M_i when the
 // list was built (backwards, step by step, it stays within R_i), so the list
 // still covers ρ_i while ρ_i + M_i <= R_i. Otherwise the list is built again
-// from the grid, at
-// R_i = ρ_i (1 + skin); one too long for its slot (capacity) is not kept, and
-// the grid's candidates serve that step only.
+// from the grid, at R_i = ρ_i (1 + skin); one too long for its slot
+// (capacity) is not kept, and the grid's candidates serve that step only.
 //
 // The lists are a cache: the callers use only the candidates within the radius
 // they need, in id order, so what they compute depends on the positions alone,
