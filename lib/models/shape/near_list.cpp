@@ -251,15 +251,12 @@ void NearLists::reset(std::size_t n, std::size_t capacity, float skin) {
   localReach_ = -1.0;
 }
 
-void NearLists::advance(double maxMove, const float* own, const float* local, double localReach) {
+void NearLists::advance(double maxMove, std::vector<float>& own, std::vector<float>* local, double localReach) {
+  if (own.size() != n_ || (local && local->size() != n_)) throw std::logic_error("NearLists::advance: not n moves");
   lastMove_ = maxMove;
-  if (own) {
-    std::copy(own, own + n_, lastOwn_.begin());
-  } else {
-    std::fill(lastOwn_.begin(), lastOwn_.end(), static_cast<float>(maxMove));
-  }
+  lastOwn_.swap(own);
   localReach_ = local ? localReach : -1.0;
-  if (local) std::copy(local, local + n_, lastLocal_.begin());
+  if (local) lastLocal_.swap(*local);
   if (!inPlace_) std::swap(last_, next_);
   inPlace_ = false;
 }

@@ -107,10 +107,11 @@ class NearLists {
     return m == kNone ? nullptr : out.pos.data() + static_cast<std::size_t>(k) * capacity_;
   }
   // after a step in which sorted insect k moved own[k] (m) relative to a translation common to every insect,
-  // each no more than maxMove (nullptr: maxMove for every one), and, where local is given, the offset of
-  // insect k to any insect within localReach of it at the end of the step changed by at most local[k] (upper
-  // bounds of the exact values, float rounding included): this step's lists become last step's
-  void advance(double maxMove, const float* own = nullptr, const float* local = nullptr, double localReach = -1.0);
+  // each no more than maxMove, and, where local is given, the offset of insect k to any insect within
+  // localReach of it at the end of the step changed by at most (*local)[k] (upper bounds of the exact values,
+  // float rounding included): this step's lists become last step's. own and *local (n each) are taken over:
+  // they come back holding last step's values, to be written over.
+  void advance(double maxMove, std::vector<float>& own, std::vector<float>* local, double localReach);
 
  private:
   struct Slots {

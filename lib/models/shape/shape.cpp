@@ -827,8 +827,7 @@ class ShapeModel final : public Model {
         if (!local || 30.0 * saved < static_cast<double>(n)) localPause_ = 15;
       }
       tLocal_ += since(tl0);
-      lists_.advance(static_cast<double>(rel), ownMove_.data(), local ? localMove_.data() : nullptr,
-                     localBound_.reach());
+      lists_.advance(static_cast<double>(rel), ownMove_, local ? &localMove_ : nullptr, localBound_.reach());
     }
     tMde_ += since(t0);
     s.swapStorage(next_);
