@@ -37,12 +37,14 @@ void parallelForDynamic(std::size_t n, std::size_t chunk, F&& body) {
 // as parallelFor: each thread takes the indices of its own contiguous range in order, `chunk` at a time (the
 // range libgomp's schedule(static) gives it, so it mostly reads what it wrote in the static loops before),
 // and a thread that has finished its range goes on with what is left of the others', a chunk at a time:
-// uneven work per index no longer leaves a thread waiting for the slowest range
+// uneven work per index no longer leaves a thread waiting for the slowest range. body(a, b) takes the indices
+// [a, b), at most `chunk` of them
 template <typename F>
-void parallelForBalanced(std::size_t n, std::size_t chunk, F&& body) {
+void parallelForBalancedChunks(std::size_t n, std::size_t chunk, F&& body) {
+  chunk = std::max<std::size_t>(1, chunk);
   const int threads = omp_get_max_threads();
   if (n < kSerialBelow || threads < 2) {
-    for (std::size_t i = 0; i < n; ++i) body(i);
+    for (std::size_t a = 0; a < n; a += chunk) body(a, std::min(n, a + chunk));
     return;
   }
   struct alignas(64) Share {
@@ -57,7 +59,6 @@ void parallelForBalanced(std::size_t n, std::size_t chunk, F&& body) {
     ranges[r].next.store(begin, std::memory_order_relaxed);
     ranges[r].end = begin + size + (r < extra ? 1 : 0);
   }
-  chunk = std::max<std::size_t>(1, chunk);
 #pragma omp parallel num_threads(threads)
   {
     const auto self = static_cast<std::size_t>(omp_get_thread_num());
@@ -66,11 +67,18 @@ void parallelForBalanced(std::size_t n, std::size_t chunk, F&& body) {
       for (;;) {
         const std::size_t a = r.next.fetch_add(chunk, std::memory_order_relaxed);
         if (a >= r.end) break;
-        const std::size_t b = std::min(r.end, a + chunk);
-        for (std::size_t i = a; i < b; ++i) body(i);
+        body(a, std::min(r.end, a + chunk));
       }
     }
   }
+}
+
+// parallelForBalancedChunks one index at a time: body(i)
+template <typename F>
+void parallelForBalanced(std::size_t n, std::size_t chunk, F&& body) {
+  parallelForBalancedChunks(n, chunk, [&](std::size_t a, std::size_t b) {
+    for (std::size_t i = a; i < b; ++i) body(i);
+  });
 }
 
 // A team of threads kept for a sequence of short loops, without a fork and a join for each (parallelTeam):

@@ -26,6 +26,7 @@
 #include "models/shape/near_list.hpp"
 #include "models/shape/path.hpp"
 #include "models/shape/sampling.hpp"
+#include "models/shape/update_kernel.hpp"
 #include "spatial/nearest.hpp"
 #include "spatial/uniform_grid.hpp"
 
@@ -565,59 +566,100 @@ class ShapeModel final : public Model {
       return zonalForce(mk, zoneLanes, ns, avx);
     };
 
-    // the rest of insect k's step, given F_int and F_con's sum
-    const auto insect = [&](std::size_t k, const Vec3& fInt, const Vec3& fCon) {
-      const Vec3 x(sx[k], sy[k], sz[k]);
-      Vec3 v(vx_[k], vy_[k], vz_[k]);
-      const Vec3 internal = fInt + Vec3(cnx_[k], cny_[k], cnz_[k]);
-      Vec3 external = Vec3::Zero();
-      if (shaped) {
-        // F_con (eq. 5): spread from the insects within the Manhattan threshold, Gaussian fall-off
-        external += fCon;
-        // F_dis (eq. 6-7): toward the insect's own sample point (also for the shape error after the move)
-        external += distanceForce(x, Vec3(tgx_[k], tgy_[k], tgz_[k]), wDis, invRange);
-      }
-      const Vec3 force = alpha * internal + (1.0f - alpha) * external;
-      // Newton's second law, unit mass; the fly's top speed
-      v += force * dt;
-      const float sp = v.norm();
-      if (sp > vmax) v *= vmax / sp;
-      // eq. 8-9: near an obstacle the velocity ramps toward the tangent (only an approach is bent)
-      if (obstacles && clearance_.distanceBound(sdfSample, x) < L) {  // (most insects: surely beyond L)
+    // the rest of each insect's step, given F_int and F_con's sum: eq. 1, F_dis, Newton's second law and the top
+    // speed on SIMD lanes (update_kernel.hpp), then eq. 8-9 one insect at a time: near an obstacle the velocity
+    // ramps toward the tangent (only an approach is bent)
+    InsectUpdate update;
+    update.x = sx;
+    update.y = sy;
+    update.z = sz;
+    update.vx = vx_.data();
+    update.vy = vy_.data();
+    update.vz = vz_.data();
+    update.cnx = cnx_.data();
+    update.cny = cny_.data();
+    update.cnz = cnz_.data();
+    if (shaped) {
+      update.sx = tgx_.data();
+      update.sy = tgy_.data();
+      update.sz = tgz_.data();
+    }
+    update.nvx = nvx_.data();
+    update.nvy = nvy_.data();
+    update.nvz = nvz_.data();
+    update.tx = tx_.data();
+    update.ty = ty_.data();
+    update.tz = tz_.data();
+    update.alpha = alpha;
+    update.wDis = wDis;
+    update.invRange = invRange;
+    update.maxSpeed = vmax;
+    update.dt = dt;
+    update.shaped = shaped;
+    constexpr std::size_t kBlock = 64;  // insects updated together
+    struct alignas(64) BlockForces {
+      float f[6][kBlock];  // F_int x, y, z, F_con's x, y, z
+    };
+    const auto updateBlock = [&](std::size_t a, std::size_t b, const BlockForces& bf, const float* fInt[3]) {
+      const float* const fCon[3] = {bf.f[3], bf.f[4], bf.f[5]};
+      updateInsects(update, a, b - a, fInt, fCon, lanes);
+      if (!obstacles) return;
+      for (std::size_t k = a; k < b; ++k) {
+        const Vec3 x(sx[k], sy[k], sz[k]);
+        if (clearance_.distanceBound(sdfSample, x) >= L) continue;  // (most insects: surely beyond L)
         const float dist = sdfSample(x);
-        if (dist < L) {
-          const Vec3 nrm = clearance_.normal(x);
-          const float vn = nrm.dot(v);
-          if (vn < 0.0f) v -= nrm * (vn * (1.0f - static_cast<float>(ramp(static_cast<double>(dist / L)))));
-        }
+        if (!(dist < L)) continue;
+        Vec3 v(nvx_[k], nvy_[k], nvz_[k]);
+        const Vec3 nrm = clearance_.normal(x);
+        const float vn = nrm.dot(v);
+        if (!(vn < 0.0f)) continue;
+        v -= nrm * (vn * (1.0f - static_cast<float>(ramp(static_cast<double>(dist / L)))));
+        nvx_[k] = v.x();
+        nvy_[k] = v.y();
+        nvz_[k] = v.z();
+        tx_[k] = x.x() + v.x() * dt;
+        ty_[k] = x.y() + v.y() * dt;
+        tz_[k] = x.z() + v.z() * dt;
       }
-      nvx_[k] = v.x();
-      nvy_[k] = v.y();
-      nvz_[k] = v.z();
-      tx_[k] = x.x() + v.x() * dt;
-      ty_[k] = x.y() + v.y() * dt;
-      tz_[k] = x.z() + v.z() * dt;
     };
 
     if (nearest) {
       // each thread takes one contiguous range of insects, the same as in the loops before and after this one:
       // most of what it reads it wrote itself (another core's cache lines cost more than the uneven work), and
       // a thread done with its own goes on with what is left of the other's
-      parallelForBalanced(n, 64, [&](std::size_t k) {
+      parallelForBalancedChunks(n, kBlock, [&](std::size_t a, std::size_t b) {
         NearScratch& ns = scratch_[static_cast<std::size_t>(threadIndex())];
-        Vec3 fCon = Vec3::Zero();
-        const Vec3 fInt = nearForces(k, ns, fCon);
-        insect(k, fInt, fCon);
+        BlockForces bf;
+        for (std::size_t k = a; k < b; ++k) {
+          Vec3 fCon = Vec3::Zero();
+          const Vec3 fInt = nearForces(k, ns, fCon);
+          for (int c = 0; c < 3; ++c) {
+            bf.f[c][k - a] = fInt[c];
+            bf.f[3 + c][k - a] = fCon[c];
+          }
+        }
+        const float* fInt[3] = {bf.f[0], bf.f[1], bf.f[2]};
+        updateBlock(a, b, bf, fInt);
       });
     } else {
-      parallelFor(n, [&](std::size_t k) {
-        ShapeConstraintSum con(kh, sigma);
-        if (shaped) {
-          grid_.forEachNeighbor(sx[k], sy[k], sz[k], kh, [&](std::uint32_t j, float dx, float dy, float dz, float d2) {
-            if (j != k) con.add(dx, dy, dz, d2);
-          });
+      parallelChunks(n, [&](std::size_t first, std::size_t last, int) {
+        for (std::size_t a = first; a < last; a += kBlock) {
+          const std::size_t b = std::min(last, a + kBlock);
+          BlockForces bf;
+          for (std::size_t k = a; k < b; ++k) {
+            ShapeConstraintSum con(kh, sigma);
+            if (shaped) {
+              grid_.forEachNeighbor(sx[k], sy[k], sz[k], kh,
+                                    [&](std::uint32_t j, float dx, float dy, float dz, float d2) {
+                                      if (j != k) con.add(dx, dy, dz, d2);
+                                    });
+            }
+            const Vec3 fCon = con.force(wCon);
+            for (int c = 0; c < 3; ++c) bf.f[3 + c][k - a] = fCon[c];
+          }
+          const float* fInt[3] = {fx_.data() + a, fy_.data() + a, fz_.data() + a};
+          updateBlock(a, b, bf, fInt);
         }
-        insect(k, Vec3(fx_[k], fy_[k], fz_[k]), con.force(wCon));
       });
     }
     if (nearest) {

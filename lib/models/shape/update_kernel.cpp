@@ -1,0 +1,131 @@
+#include "models/shape/update_kernel.hpp"
+
+#include <algorithm>
+
+namespace swarmsim {
+
+namespace {
+
+// the eight-lane view of an InsectUpdate's arrays, from a given index on, and the block's forces
+struct UpdateArrays {
+  const float* in[12];    // x, y, z, vx, vy, vz, cnx, cny, cnz, sx, sy, sz
+  const float* force[6];  // F_int x, y, z, F_con x, y, z
+  float* out[6];          // nvx, nvy, nvz, tx, ty, tz
+};
+
+template <typename L>
+inline typename L::V select(typename L::V m, typename L::V a, typename L::V b) {
+  return L::bor(L::band(m, a), L::andnot(m, b));
+}
+
+// |(x, y, z)| as Eigen's norm() of a 3-vector computes it: sqrt(x² + (y² + z²))
+template <typename L>
+inline typename L::V norm3(typename L::V x, typename L::V y, typename L::V z) {
+  return L::sqrt(L::add(L::mul(x, x), L::add(L::mul(y, y), L::mul(z, z))));
+}
+
+// eight insects: a.in[·][0..7], a.force[·][0..7] to a.out[·][0..7]
+template <typename L>
+inline void updateLanes(const InsectUpdate& u, const UpdateArrays& a) {
+  using V = typename L::V;
+  const V zero = L::set1(0.0f), one = L::set1(1.0f), half = L::set1(0.5f), four = L::set1(4.0f);
+  const V dt = L::set1(u.dt), alpha = L::set1(u.alpha), beta = L::set1(1.0f - u.alpha);
+  const V x[3] = {L::load(a.in[0]), L::load(a.in[1]), L::load(a.in[2])};
+  V v[3] = {L::load(a.in[3]), L::load(a.in[4]), L::load(a.in[5])};
+  V internal[3], external[3];
+  for (int c = 0; c < 3; ++c) {
+    internal[c] = L::add(L::load(a.force[c]), L::load(a.in[6 + c]));
+    external[c] = zero;
+  }
+  if (u.shaped) {
+    for (int c = 0; c < 3; ++c) external[c] = L::add(external[c], L::load(a.force[3 + c]));
+    // F_dis (shape.hpp's distanceForce and distanceProfile)
+    V to[3];
+    for (int c = 0; c < 3; ++c) to[c] = L::sub(L::load(a.in[9 + c]), x[c]);
+    const V e = norm3<L>(to[0], to[1], to[2]);
+    const V d = L::mul(e, L::set1(u.invRange));
+    const V ed = L::sub(d, half);
+    const V profile =
+        L::band(L::band(L::gt(d, zero), L::le(d, one)), L::add(L::mul(L::mul(L::mul(four, ed), ed), ed), half));
+    const V scale = L::div(L::mul(L::set1(u.wDis), profile), e);
+    const V some = L::gt(e, zero);
+    for (int c = 0; c < 3; ++c) external[c] = L::add(external[c], L::band(some, L::mul(to[c], scale)));
+  }
+  for (int c = 0; c < 3; ++c) {
+    const V force = L::add(L::mul(alpha, internal[c]), L::mul(beta, external[c]));
+    v[c] = L::add(v[c], L::mul(force, dt));
+  }
+  const V vmax = L::set1(u.maxSpeed);
+  const V sp = norm3<L>(v[0], v[1], v[2]);
+  const V fast = L::gt(sp, vmax), scale = L::div(vmax, sp);
+  for (int c = 0; c < 3; ++c) {
+    v[c] = select<L>(fast, L::mul(v[c], scale), v[c]);
+    L::store(a.out[c], v[c]);
+    L::store(a.out[3 + c], L::add(x[c], L::mul(v[c], dt)));
+  }
+}
+
+template <typename L>
+void updateBlock(const InsectUpdate& u, std::size_t first, std::size_t count, const float* const fInt[3],
+                 const float* const fCon[3]) {
+  const float* const in[12] = {u.x, u.y, u.z, u.vx, u.vy, u.vz, u.cnx, u.cny, u.cnz, u.sx, u.sy, u.sz};
+  float* const out[6] = {u.nvx, u.nvy, u.nvz, u.tx, u.ty, u.tz};
+  std::size_t i = 0;
+  for (; i + kLanes <= count; i += kLanes) {
+    UpdateArrays a;
+    for (int c = 0; c < 12; ++c) a.in[c] = in[c] ? in[c] + first + i : nullptr;
+    for (int c = 0; c < 3; ++c) {
+      a.force[c] = fInt[c] + i;
+      a.force[3 + c] = fCon[c] + i;
+    }
+    for (int c = 0; c < 6; ++c) a.out[c] = out[c] + first + i;
+    if (!u.shaped) a.in[9] = a.in[10] = a.in[11] = a.force[3] = a.force[4] = a.force[5] = a.in[0];  // (unread)
+    updateLanes<L>(u, a);
+  }
+  if (i == count) return;
+  // the last few: through padded copies (zeros past the end)
+  const std::size_t m = count - i;
+  alignas(32) float tin[12][kLanes] = {}, tforce[6][kLanes] = {}, tout[6][kLanes];
+  UpdateArrays a;
+  for (int c = 0; c < 12; ++c) {
+    if (in[c] && (u.shaped || c < 9)) std::copy(in[c] + first + i, in[c] + first + i + m, tin[c]);
+    a.in[c] = tin[c];
+  }
+  for (int c = 0; c < 3; ++c) {
+    std::copy(fInt[c] + i, fInt[c] + i + m, tforce[c]);
+    if (u.shaped) std::copy(fCon[c] + i, fCon[c] + i + m, tforce[3 + c]);
+    a.force[c] = tforce[c];
+    a.force[3 + c] = tforce[3 + c];
+  }
+  for (int c = 0; c < 6; ++c) a.out[c] = tout[c];
+  updateLanes<L>(u, a);
+  for (int c = 0; c < 6; ++c) std::copy(tout[c], tout[c] + m, out[c] + first + i);
+}
+
+#if SWARMSIM_X86_LANES
+#define SWARMSIM_UPDATE_ARGS \
+  const InsectUpdate &u, std::size_t first, std::size_t count, const float *const fInt[3], const float *const fCon[3]
+__attribute__((flatten)) void updateSse(SWARMSIM_UPDATE_ARGS) { updateBlock<SseLanes>(u, first, count, fInt, fCon); }
+SWARMSIM_AVX __attribute__((flatten)) void updateAvx(SWARMSIM_UPDATE_ARGS) {
+  updateBlock<AvxLanes>(u, first, count, fInt, fCon);
+}
+#undef SWARMSIM_UPDATE_ARGS
+#endif
+
+}  // namespace
+
+void updateInsects(const InsectUpdate& u, std::size_t first, std::size_t count, const float* const fInt[3],
+                   const float* const fCon[3], LaneSet lanes) {
+#if SWARMSIM_X86_LANES
+  if (lanes == LaneSet::kSse) {
+    updateSse(u, first, count, fInt, fCon);
+  } else {
+    updateAvx(u, first, count, fInt, fCon);
+  }
+#else
+  (void)lanes;
+  updateBlock<ScalarLanes>(u, first, count, fInt, fCon);
+#endif
+}
+
+}  // namespace swarmsim

@@ -1,0 +1,35 @@
+#pragma once
+// The shape model's per-insect update (eq. 1, 6-7, Newton's second law and the top speed), eight insects at a
+// time on SIMD lanes (core/lanes.hpp: AVX or SSE chosen at run time). Every lane does the scalar code's
+// operations in the scalar code's order (Eigen's 3-vector norm is sqrt(x² + (y² + z²))), so the result is the
+// same bit for bit on every lane set and for any split of the insects into blocks.
+#include <cstddef>
+
+#include "core/lanes.hpp"
+
+namespace swarmsim {
+
+// what the update reads and writes, by sorted position k (the arrays of the step)
+struct InsectUpdate {
+  const float *x, *y, *z;        // positions at the start of the step
+  const float *vx, *vy, *vz;     // velocities at the start of the step
+  const float *cnx, *cny, *cnz;  // each insect's curl noise (eq. 4)
+  const float *sx, *sy, *sz;     // each insect's sample point (read only when shaped)
+  float *nvx, *nvy, *nvz;        // out: the new velocities
+  float *tx, *ty, *tz;           // out: the moved positions x + v dt (before MDE, obstacles and walls)
+  float alpha = 0.7f;            // α of eq. 1
+  float wDis = 0.0f;             // ω_dis of eq. 6
+  float invRange = 1.0f;         // 1 / the influence range of eq. 7, 1/m
+  float maxSpeed = 0.75f;        // m/s
+  float dt = 0.0f;               // s
+  bool shaped = false;           // F_ext's terms (F_con, F_dis) apply
+};
+
+// For the insects first + i, i in [0, count): with F_int = (fInt[0][i], fInt[1][i], fInt[2][i]) and F_con's
+//   F_int' = F_int + F_cur,  F_ext = 0 + F_con + F_dis (shaped only; F_dis of shape.hpp's distanceForce),
+//   v' = v + (α F_int' + (1 − α) F_ext) dt, then v' scaled to the top speed if faster,
+// into nv and t = x + v' dt. The obstacle ramp (eq. 8-9) is the caller's (it may change v' and t after this).
+void updateInsects(const InsectUpdate &u, std::size_t first, std::size_t count, const float *const fInt[3],
+                   const float *const fCon[3], LaneSet lanes);
+
+}  // namespace swarmsim

@@ -1,0 +1,145 @@
+// The shape model's per-insect update on SIMD lanes (lib/models/shape/update_kernel.hpp) against the same
+// equations written one insect at a time with Eigen's vectors (eq. 1, shape.hpp's distanceForce for eq. 6-7,
+// Newton's second law, the top speed): the same bits on every lane set, for any block length and offset.
+#include "models/shape/update_kernel.hpp"
+
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <cstring>
+#include <random>
+#include <vector>
+
+#include "core/vec.hpp"
+#include "lane_sets.hpp"
+#include "models/shape/shape.hpp"
+
+using namespace swarmsim;
+
+namespace {
+
+struct Case {
+  std::size_t n = 0;
+  std::vector<float> x, y, z, vx, vy, vz, cnx, cny, cnz, sx, sy, sz, fi[3], fc[3];
+};
+
+Case makeCase(std::mt19937& rng, std::size_t n) {
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  Case c;
+  c.n = n;
+  for (auto* a : {&c.x, &c.y, &c.z, &c.vx, &c.vy, &c.vz, &c.cnx, &c.cny, &c.cnz, &c.sx, &c.sy, &c.sz, &c.fi[0],
+                  &c.fi[1], &c.fi[2], &c.fc[0], &c.fc[1], &c.fc[2]}) {
+    a->resize(n);
+    for (float& v : *a) v = u(rng);
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    switch (k % 7) {
+      case 0:  // at its sample point: no F_dis
+        c.sx[k] = c.x[k];
+        c.sy[k] = c.y[k];
+        c.sz[k] = c.z[k];
+        break;
+      case 1:  // beyond the influence range: the profile is 0
+        c.sx[k] = c.x[k] + 5.0f;
+        break;
+      case 2:  // negative zeros everywhere they can reach the sums
+        c.fi[0][k] = c.fc[1][k] = c.cnx[k] = c.vx[k] = -0.0f;
+        break;
+      case 3:  // far faster than the top speed
+        c.fi[1][k] *= 400.0f;
+        break;
+      case 4:  // standing still, no forces
+        c.vx[k] = c.vy[k] = c.vz[k] = 0.0f;
+        c.fi[0][k] = c.fi[1][k] = c.fi[2][k] = c.fc[0][k] = c.fc[1][k] = c.fc[2][k] = 0.0f;
+        c.cnx[k] = c.cny[k] = c.cnz[k] = 0.0f;
+        break;
+      default:
+        break;
+    }
+  }
+  return c;
+}
+
+bool sameBits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+}  // namespace
+
+TEST_CASE("shape update: the SIMD lanes give the one-insect-at-a-time update's bits on every lane set",
+          "[shape][update_kernel]") {
+  std::mt19937 rng(5);
+  for (const bool shaped : {true, false}) {
+    for (const float alpha : {0.0f, 0.7f, 1.0f}) {
+      const std::size_t n = 61;
+      const Case c = makeCase(rng, n);
+      InsectUpdate u;
+      u.x = c.x.data();
+      u.y = c.y.data();
+      u.z = c.z.data();
+      u.vx = c.vx.data();
+      u.vy = c.vy.data();
+      u.vz = c.vz.data();
+      u.cnx = c.cnx.data();
+      u.cny = c.cny.data();
+      u.cnz = c.cnz.data();
+      if (shaped) {
+        u.sx = c.sx.data();
+        u.sy = c.sy.data();
+        u.sz = c.sz.data();
+      }
+      u.alpha = alpha;
+      u.wDis = 2.5f;
+      u.invRange = 1.0f / 1.7f;
+      u.maxSpeed = 0.75f;
+      u.dt = 1.0f / 30.0f;
+      u.shaped = shaped;
+      // the reference: the scalar update the model ran before the lanes
+      std::vector<float> expect[6];
+      for (auto& e : expect) e.resize(n);
+      for (std::size_t k = 0; k < n; ++k) {
+        const Vec3 x(c.x[k], c.y[k], c.z[k]);
+        Vec3 v(c.vx[k], c.vy[k], c.vz[k]);
+        const Vec3 internal = Vec3(c.fi[0][k], c.fi[1][k], c.fi[2][k]) + Vec3(c.cnx[k], c.cny[k], c.cnz[k]);
+        Vec3 external = Vec3::Zero();
+        if (shaped) {
+          external += Vec3(c.fc[0][k], c.fc[1][k], c.fc[2][k]);
+          external += distanceForce(x, Vec3(c.sx[k], c.sy[k], c.sz[k]), u.wDis, u.invRange);
+        }
+        const Vec3 force = alpha * internal + (1.0f - alpha) * external;
+        v += force * u.dt;
+        const float sp = v.norm();
+        if (sp > u.maxSpeed) v *= u.maxSpeed / sp;
+        for (int a = 0; a < 3; ++a) {
+          expect[a][k] = v[a];
+          expect[3 + a][k] = x[a] + v[a] * u.dt;
+        }
+      }
+      // every split: a block of each length from each of a few offsets
+      for (const LaneSet lanes : swarmsim_test::laneSetsOfThisCpu()) {
+        for (const std::size_t first : {std::size_t{0}, std::size_t{3}, std::size_t{17}}) {
+          for (std::size_t count = 0; first + count <= n; ++count) {
+            std::vector<float> got[6];
+            for (auto& g : got) g.assign(n, 99.0f);
+            u.nvx = got[0].data();
+            u.nvy = got[1].data();
+            u.nvz = got[2].data();
+            u.tx = got[3].data();
+            u.ty = got[4].data();
+            u.tz = got[5].data();
+            const float* fi[3] = {c.fi[0].data() + first, c.fi[1].data() + first, c.fi[2].data() + first};
+            const float* fc[3] = {c.fc[0].data() + first, c.fc[1].data() + first, c.fc[2].data() + first};
+            updateInsects(u, first, count, fi, fc, lanes);
+            for (std::size_t k = 0; k < n; ++k) {
+              for (int a = 0; a < 6; ++a) {
+                CAPTURE(shaped, alpha, static_cast<int>(lanes), first, count, k, a, got[a][k], expect[a][k]);
+                if (k >= first && k < first + count) {
+                  REQUIRE(sameBits(got[a][k], expect[a][k]));
+                } else {
+                  REQUIRE(got[a][k] == 99.0f);  // nothing outside the block written
+                }
+              }
+            }
+          }
+        }
+      }
+    }
+  }
+}
