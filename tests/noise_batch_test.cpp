@@ -288,7 +288,8 @@ TEST_CASE("The exact curl in batches equals curlRaw bit for bit", "[noise][field
     for (const std::size_t n : {0, 1, 3, 5, 17, 63, 64, 65, 130, 8000}) {
       std::vector<double> c[3];
       for (auto& ci : c) ci.assign(n + 1, -1.0);
-      pot.curlRawBatch(x[0].data(), x[1].data(), x[2].data(), n, c[0].data(), c[1].data(), c[2].data(), avx);
+      pot.curlRawBatch(x[0].data(), x[1].data(), x[2].data(), n, c[0].data(), c[1].data(), c[2].data(), avx,
+                       PerlinNoise3::batchWide());
       int bad = 0;
       for (std::size_t i = 0; i < n; ++i) {
         const Vec3d want = pot.curlRaw(Vec3d(x[0][i], x[1][i], x[2][i]));

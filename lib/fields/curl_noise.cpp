@@ -83,9 +83,9 @@ Vec3d NoisePotential::curlRaw(const Vec3d& x) const {
 }
 
 void NoisePotential::curlRawBatch(const double* x, const double* y, const double* z, std::size_t n, double* cx,
-                                  double* cy, double* cz, bool avx) const {
+                                  double* cy, double* cz, bool avx, bool wideLanes) const {
   // eight points at a time on AVX-512, else four (the same bits)
-  const bool wide = avx && PerlinNoise3::batchWide();
+  const bool wide = avx && wideLanes;
   const std::size_t L = wide ? PerlinNoise3::kWideLanes : PerlinNoise3::kLanes;
   // a chunk's lattice coordinates are all written before the lanes load them (a vector load of values just
   // stored one by one would wait for the stores); the last batch of lanes is padded with the chunk's first point

@@ -121,11 +121,11 @@ SWARMSIM_AVX2 unsigned floorPass8(const float* x, const float* y, const float* z
 }  // namespace
 #endif
 
-void NoiseField::exactCurlBatch(const float* x, const float* y, const float* z, std::size_t n, bool* exact) const {
+void NoiseField::exactCurlBatch(const float* x, const float* y, const float* z, std::size_t n, bool* exact,
+                                LaneSet lanes) const {
   std::size_t i = 0;
 #if SWARMSIM_X86_LANES
   static_assert(kFloorBlock == 8, "floorPass8 divides by 8");
-  const LaneSet lanes = laneSet();
   if (boundary_ && !floor_.empty() && (lanes == LaneSet::kAvx2 || lanes == LaneSet::kAvx512)) {
     const GridSpec& g = boundary_->spec;
     float mn[3], cell[3];
@@ -143,6 +143,8 @@ void NoiseField::exactCurlBatch(const float* x, const float* y, const float* z, 
       }
     }
   }
+#else
+  (void)lanes;
 #endif
   for (; i < n; ++i) exact[i] = exactCurlAt(Vec3(x[i], y[i], z[i]));
 }
@@ -180,13 +182,15 @@ void NoiseField::evaluateBatch(const float* x, const float* y, const float* z, s
   // misses overlap), then the differences near the boundary one point at a time and the exact curl of the
   // others on SIMD lanes
   constexpr std::size_t kBlock = 64;
-  const bool avx = PerlinNoise3::batchAvx();
+  // (the lane sets asked once: each question reads the environment)
+  const bool avx = PerlinNoise3::batchAvx(), wide = avx && PerlinNoise3::batchWide();
+  const LaneSet lanes = laneSet();
   bool exact[kBlock];
   double px[kBlock], py[kBlock], pz[kBlock], cx[kBlock], cy[kBlock], cz[kBlock];
   std::size_t slot[kBlock];
   for (std::size_t start = 0; start < n; start += kBlock) {
     const std::size_t m = std::min(kBlock, n - start);
-    exactCurlBatch(x + start, y + start, z + start, m, exact);
+    exactCurlBatch(x + start, y + start, z + start, m, exact, lanes);
     std::size_t k = 0;
     for (std::size_t j = 0; j < m; ++j) {
       const std::size_t i = start + j;
@@ -202,7 +206,7 @@ void NoiseField::evaluateBatch(const float* x, const float* y, const float* z, s
       oy[i] = v.y();
       oz[i] = v.z();
     }
-    potential_->curlRawBatch(px, py, pz, k, cx, cy, cz, avx);
+    potential_->curlRawBatch(px, py, pz, k, cx, cy, cz, avx, wide);
     for (std::size_t q = 0; q < k; ++q) {
       ox[slot[q]] = static_cast<float>(cx[q]);
       oy[slot[q]] = static_cast<float>(cy[q]);

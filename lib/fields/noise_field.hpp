@@ -16,6 +16,7 @@
 #include <memory>
 #include <vector>
 
+#include "core/lanes.hpp"
 #include "core/vec.hpp"
 #include "core/world.hpp"
 #include "fields/curl_noise.hpp"
@@ -50,8 +51,8 @@ class NoiseField {
   // direct curl: whether x is far enough from the boundary for the exact curl (evaluate's test)
   bool exactCurlAt(const Vec3& x) const;
   // exactCurlAt of the n points (x[i], y[i], z[i]) into exact[i]; on AVX2 the floor test of eight at a time,
-  // then exactCurlAt of those it does not pass (the same answers)
-  void exactCurlBatch(const float* x, const float* y, const float* z, std::size_t n, bool* exact) const;
+  // then exactCurlAt of those it does not pass (the same answers); lanes: laneSet()
+  void exactCurlBatch(const float* x, const float* y, const float* z, std::size_t n, bool* exact, LaneSet lanes) const;
   void buildFloor();
   // direct curl near the boundary: central differences of the blended potential at p
   Vec3 blendedCurl(const Vec3d& p) const;

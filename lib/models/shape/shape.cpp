@@ -380,7 +380,8 @@ class ShapeModel final : public Model {
 
     // eq. 4's curl noise of every insect first, several at a time (the same bits as one at a time)
     for (auto* a : {&cnx_, &cny_, &cnz_}) a->resize(n);
-    parallelChunks(n, [&](std::size_t first, std::size_t last, int) {
+    // (a thread done with its own range takes from the other's: the blended curl near a boundary costs far more)
+    parallelForBalancedChunks(n, 256, [&](std::size_t first, std::size_t last) {
       noise_.evaluateBatch(sx + first, sy + first, sz + first, last - first, cnx_.data() + first, cny_.data() + first,
                            cnz_.data() + first);
       // each insect's sample point now (random accesses, together: their cache misses overlap)
@@ -745,7 +746,8 @@ class ShapeModel final : public Model {
       move_.resize(3 * n + 1);  // (+ 1: LocalMoveBound reads four floats at a time)
       moveBox_.assign(static_cast<std::size_t>(chunkCount(n)), MoveBox{});
     }
-    parallelFor(n, [&](std::size_t k) {
+    // (balanced: only some insects have neighbours to push them)
+    parallelForBalanced(n, 64, [&](std::size_t k) {
       Vec3 x(tx_[k], ty_[k], tz_[k]);
       bool pushed = false;
       if (md > 0.0f && nearest) {
