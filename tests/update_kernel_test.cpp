@@ -5,6 +5,7 @@
 
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <random>
 #include <vector>
@@ -134,6 +135,59 @@ TEST_CASE("shape update: the SIMD lanes give the one-insect-at-a-time update's b
                   REQUIRE(sameBits(got[a][k], expect[a][k]));
                 } else {
                   REQUIRE(got[a][k] == 99.0f);  // nothing outside the block written
+                }
+              }
+            }
+          }
+        }
+      }
+    }
+  }
+}
+
+TEST_CASE("shape update: the sample points on SIMD lanes equal Eigen's placement of the interpolated samples",
+          "[shape][update_kernel]") {
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<float> u(-20.0f, 20.0f);
+  const std::size_t samples = 500, n = 77;
+  std::vector<Vec3> keyA(samples), keyB(samples);
+  for (std::size_t i = 0; i < samples; ++i) {
+    keyA[i] = Vec3(u(rng), u(rng), u(rng));
+    keyB[i] = keyA[i] + Vec3(u(rng), u(rng), u(rng)) * 0.01f;
+  }
+  std::vector<std::uint32_t> sample(n);
+  for (auto& s : sample) s = static_cast<std::uint32_t>(rng() % samples);
+  sample[5] = samples - 1;  // the last sample: the gathers' reach
+  const Eigen::Matrix3f rot = Eigen::AngleAxisf(0.7f, Vec3(0.2f, -0.3f, 0.9f).normalized()).toRotationMatrix();
+  const Vec3 shift(31.5f, -2.25f, 7.0f), pivot(-12.0f, 3.5f, 0.125f);
+  for (const bool placed : {true, false}) {
+    for (const float f : {0.0f, 0.37f, 1.0f}) {
+      TargetPlacement t;
+      t.keyA = keyA.front().data();
+      t.keyB = keyB.front().data();
+      t.f = f;
+      t.placed = placed;
+      for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) t.rot[3 * r + c] = rot(r, c);
+        t.shift[r] = shift[r];
+        t.pivot[r] = pivot[r];
+      }
+      for (const LaneSet lanes : swarmsim_test::laneSetsOfThisCpu()) {
+        for (const std::size_t first : {std::size_t{0}, std::size_t{5}}) {
+          for (std::size_t count = 0; first + count <= n; ++count) {
+            std::vector<float> got[3];
+            for (auto& g : got) g.assign(n, 99.0f);
+            placeTargets(t, sample.data(), first, count, got[0].data(), got[1].data(), got[2].data(), lanes);
+            for (std::size_t k = 0; k < n; ++k) {
+              const Vec3& a = keyA[sample[k]];
+              const Vec3 p = a + f * (keyB[sample[k]] - a);
+              const Vec3 want = placed ? Vec3(shift + rot * (p - pivot)) : p;
+              for (int c = 0; c < 3; ++c) {
+                CAPTURE(placed, f, static_cast<int>(lanes), first, count, k, c);
+                if (k >= first && k < first + count) {
+                  REQUIRE(sameBits(got[c][k], want[c]));
+                } else {
+                  REQUIRE(got[c][k] == 99.0f);
                 }
               }
             }

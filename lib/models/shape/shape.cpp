@@ -378,6 +378,20 @@ class ShapeModel final : public Model {
     if (scratch_.size() < static_cast<std::size_t>(threadCount())) scratch_.resize(static_cast<std::size_t>(threadCount()));
     const float inv2s2 = 1.0f / (2.0f * sigma * sigma);
 
+    const LaneSet lanes = laneSet();
+    TargetPlacement placement;  // targetOf's, eight insects at a time (update_kernel.hpp)
+    if (shaped && n > 0) {
+      static_assert(sizeof(Vec3) == 3 * sizeof(float), "the samples' positions as x, y, z floats");
+      placement.keyA = keyPos_[keyA].front().data();
+      placement.keyB = keyPos_[keyB].front().data();
+      placement.f = f;
+      placement.placed = !(shift == Vec3::Zero() && pivot == Vec3::Zero());
+      for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) placement.rot[3 * r + c] = rot(r, c);
+        placement.shift[r] = shift[r];
+        placement.pivot[r] = pivot[r];
+      }
+    }
     // eq. 4's curl noise of every insect first, several at a time (the same bits as one at a time)
     for (auto* a : {&cnx_, &cny_, &cnz_}) a->resize(n);
     // (a thread done with its own range takes from the other's: the blended curl near a boundary costs far more)
@@ -385,13 +399,9 @@ class ShapeModel final : public Model {
       noise_.evaluateBatch(sx + first, sy + first, sz + first, last - first, cnx_.data() + first, cny_.data() + first,
                            cnz_.data() + first);
       // each insect's sample point now (random accesses, together: their cache misses overlap)
-      if (shaped) {
-        for (std::size_t k = first; k < last; ++k) {
-          const Vec3 target = targetOf(sample_[k], keyA, keyB, f, rot, shift, pivot);
-          tgx_[k] = target.x();
-          tgy_[k] = target.y();
-          tgz_[k] = target.z();
-        }
+      if (shaped) {  // (AVX2's gathers take 3 i in 32 bits: up to 200 million insects, kMaxAgents)
+        placeTargets(placement, sample_.data(), first, last - first, tgx_.data(), tgy_.data(), tgz_.data(),
+                     3 * n < (std::size_t{1} << 31) ? lanes : LaneSet::kSse);
       }
     });
 
@@ -424,7 +434,6 @@ class ShapeModel final : public Model {
     if (keepNear) nearNext_.resize(n * K);  // (allocated only where kept: 8 K bytes per insect for the two)
     if (nearKept_) ++keptSteps_;
     const ZoneLanes zoneLanes = {zones.rRep2, zones.rAli2, zones.rAtt2, {zones.w[0], zones.w[1], zones.w[2]}};
-    const LaneSet lanes = laneSet();
     const bool avx = lanes != LaneSet::kSse;  // for the kernels without an AVX2 variant
     const bool rowsZonal = zonalFromRows(lanes);
     // F_con (into fCon) and F_int (returned) of sorted insect k from its near-list candidates. Every sum runs
@@ -968,11 +977,6 @@ class ShapeModel final : public Model {
   // after a new assignment: no insect's sample is where last step left it, so the next step takes every
   // one through its id (last step's ids are what tells it where the state is as last step wrote it)
   void forgetSampleOrder() { ids_.clear(); }
-  Vec3 targetOf(std::uint32_t i, std::size_t a, std::size_t b, float f, const Eigen::Matrix3f& rot, const Vec3& shift,
-                const Vec3& pivot) const {
-    const Vec3& pa = keyPos_[a][i];
-    return place(pa + f * (keyPos_[b][i] - pa), rot, shift, pivot);
-  }
 
   ShapeParams p_;
   Aabb domain_;

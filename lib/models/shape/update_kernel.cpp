@@ -102,7 +102,60 @@ void updateBlock(const InsectUpdate& u, std::size_t first, std::size_t count, co
   for (int c = 0; c < 6; ++c) std::copy(tout[c], tout[c] + m, out[c] + first + i);
 }
 
+// placeTargets one sample at a time
+inline void placeOne(const TargetPlacement& t, std::uint32_t i, float out[3]) {
+  const float* a = t.keyA + 3 * std::size_t{i};
+  const float* b = t.keyB + 3 * std::size_t{i};
+  float q[3];
+  for (int c = 0; c < 3; ++c) q[c] = a[c] + t.f * (b[c] - a[c]);
+  if (!t.placed) {
+    for (int c = 0; c < 3; ++c) out[c] = q[c];
+    return;
+  }
+  for (int c = 0; c < 3; ++c) q[c] -= t.pivot[c];
+  for (int r = 0; r < 3; ++r) {
+    out[r] = t.shift[r] + (t.rot[3 * r] * q[0] + (t.rot[3 * r + 1] * q[1] + t.rot[3 * r + 2] * q[2]));
+  }
+}
+
 #if SWARMSIM_X86_LANES
+// placeTargets on eight AVX2 lanes (gathers of the samples' coordinates), the rest one at a time
+SWARMSIM_AVX2 void placeAvx2(const TargetPlacement& t, const std::uint32_t* sample, std::size_t first,
+                             std::size_t count, float* tx, float* ty, float* tz) {
+  std::size_t k = first;
+  const std::size_t end = first + count;
+  const __m256 f = _mm256_set1_ps(t.f);
+  float* out[3] = {tx, ty, tz};
+  for (; k + kLanes <= end; k += kLanes) {
+    const __m256i i = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(sample + k));
+    const __m256i at = _mm256_add_epi32(i, _mm256_add_epi32(i, i));  // 3 i
+    __m256 q[3];
+    for (int c = 0; c < 3; ++c) {
+      const __m256 a = _mm256_i32gather_ps(t.keyA + c, at, 4), b = _mm256_i32gather_ps(t.keyB + c, at, 4);
+      q[c] = _mm256_add_ps(a, _mm256_mul_ps(f, _mm256_sub_ps(b, a)));
+    }
+    if (t.placed) {
+      for (int c = 0; c < 3; ++c) q[c] = _mm256_sub_ps(q[c], _mm256_set1_ps(t.pivot[c]));
+      __m256 r[3];
+      for (int row = 0; row < 3; ++row) {
+        const __m256 p0 = _mm256_mul_ps(_mm256_set1_ps(t.rot[3 * row]), q[0]);
+        const __m256 p1 = _mm256_mul_ps(_mm256_set1_ps(t.rot[3 * row + 1]), q[1]);
+        const __m256 p2 = _mm256_mul_ps(_mm256_set1_ps(t.rot[3 * row + 2]), q[2]);
+        r[row] = _mm256_add_ps(_mm256_set1_ps(t.shift[row]), _mm256_add_ps(p0, _mm256_add_ps(p1, p2)));
+      }
+      for (int c = 0; c < 3; ++c) q[c] = r[c];
+    }
+    for (int c = 0; c < 3; ++c) _mm256_storeu_ps(out[c] + k, q[c]);
+  }
+  for (; k < end; ++k) {
+    float o[3];
+    placeOne(t, sample[k], o);
+    tx[k] = o[0];
+    ty[k] = o[1];
+    tz[k] = o[2];
+  }
+}
+
 #define SWARMSIM_UPDATE_ARGS \
   const InsectUpdate &u, std::size_t first, std::size_t count, const float *const fInt[3], const float *const fCon[3]
 __attribute__((flatten)) void updateSse(SWARMSIM_UPDATE_ARGS) { updateBlock<SseLanes>(u, first, count, fInt, fCon); }
@@ -126,6 +179,25 @@ void updateInsects(const InsectUpdate& u, std::size_t first, std::size_t count, 
   (void)lanes;
   updateBlock<ScalarLanes>(u, first, count, fInt, fCon);
 #endif
+}
+
+void placeTargets(const TargetPlacement& t, const std::uint32_t* sample, std::size_t first, std::size_t count,
+                  float* tx, float* ty, float* tz, LaneSet lanes) {
+#if SWARMSIM_X86_LANES
+  if (lanes == LaneSet::kAvx2 || lanes == LaneSet::kAvx512) {
+    placeAvx2(t, sample, first, count, tx, ty, tz);
+    return;
+  }
+#else
+  (void)lanes;
+#endif
+  for (std::size_t k = first; k < first + count; ++k) {
+    float o[3];
+    placeOne(t, sample[k], o);
+    tx[k] = o[0];
+    ty[k] = o[1];
+    tz[k] = o[2];
+  }
 }
 
 }  // namespace swarmsim

@@ -2,8 +2,10 @@
 // The shape model's per-insect update (eq. 1, 6-7, Newton's second law and the top speed), eight insects at a
 // time on SIMD lanes (core/lanes.hpp: AVX or SSE chosen at run time). Every lane does the scalar code's
 // operations in the scalar code's order (Eigen's 3-vector norm is sqrt(x² + (y² + z²))), so the result is the
-// same bit for bit on every lane set and for any split of the insects into blocks.
+// same bit for bit on every lane set and for any split of the insects into blocks. Likewise each insect's sample
+// point at the step's time, eight at a time on AVX2.
 #include <cstddef>
+#include <cstdint>
 
 #include "core/lanes.hpp"
 
@@ -31,5 +33,23 @@ struct InsectUpdate {
 // into nv and t = x + v' dt. The obstacle ramp (eq. 8-9) is the caller's (it may change v' and t after this).
 void updateInsects(const InsectUpdate &u, std::size_t first, std::size_t count, const float *const fInt[3],
                    const float *const fCon[3], LaneSet lanes);
+
+// the sample points of a step: keyframe interpolation between two keys, then the path's placement
+struct TargetPlacement {
+  const float *keyA = nullptr;  // the samples' positions at the two keys, x, y, z of each (3 floats a sample)
+  const float *keyB = nullptr;
+  float f = 0.0f;       // the interpolation weight of key B
+  bool placed = false;  // false: no path (the placement is the identity)
+  float rot[9] = {};    // the path's rotation, row by row
+  float shift[3] = {};  // where the path is
+  float pivot[3] = {};  // the path's start
+};
+
+// For k in [first, first + count): with i = sample[k], p = a + f (b − a) (a, b: sample i at keys A and B), the
+// sample point shift + rot (p − pivot) (p itself unless placed) into (tx[k], ty[k], tz[k]); the products summed
+// as Eigen's Matrix3f times Vector3f sums them, r0 q0 + (r1 q1 + r2 q2). The samples' indices must be below
+// 2^31 / 3 where lanes is kAvx2 or kAvx512 (AVX2 gathers).
+void placeTargets(const TargetPlacement &t, const std::uint32_t *sample, std::size_t first, std::size_t count,
+                  float *tx, float *ty, float *tz, LaneSet lanes);
 
 }  // namespace swarmsim
