@@ -266,3 +266,29 @@ TEST_CASE("near kernels: farthestRow2 gives the scalar loop's squared distance o
     }
   }
 }
+
+TEST_CASE("near kernels: keepSmallest keeps the K smallest keys in their given order", "[shape][near_kernel]") {
+  std::mt19937_64 rng(21);
+  for (int round = 0; round < 3000; ++round) {
+    const std::size_t K = rng() % 14, m = rng() % 40;
+    std::vector<std::uint64_t> keys(m);
+    for (std::size_t e = 0; e < m; ++e) {
+      // squared distance bits high (with ties), the index low: distinct keys, as neighbourKey makes them
+      keys[e] = ((rng() % 50) << 32) | e;
+    }
+    std::vector<std::uint64_t> sorted = keys;
+    std::sort(sorted.begin(), sorted.end());
+    const std::size_t keep = std::min(K, m);
+    const std::uint64_t limit = keep > 0 ? sorted[keep - 1] : 0;
+    std::vector<std::uint64_t> want;
+    for (const std::uint64_t k : keys) {
+      if (keep > 0 && k <= limit) want.push_back(k);
+    }
+    std::vector<std::uint64_t> got = keys;
+    const std::size_t n = keepSmallest(got.data(), m, K);
+    CAPTURE(round, K, m);
+    REQUIRE(n == keep);
+    got.resize(n);
+    REQUIRE(got == want);
+  }
+}

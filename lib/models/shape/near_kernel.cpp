@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "core/lanes.hpp"
+#include "spatial/nearest.hpp"
 
 namespace swarmsim {
 
@@ -437,6 +438,75 @@ float farthestRow2(std::size_t m, const std::uint32_t* prev, const std::uint32_t
     far2 = std::max(far2, dx * dx + dy * dy + dz * dz);
   }
   return far2;
+}
+
+namespace {
+
+// the D-th largest of the keys[0, m) (m >= D; 0 for a place not filled): the D largest so far kept in
+// descending order in registers, each key passed down through them by compare-and-swap (no branch on the
+// data; a key's trip depends on the previous key's only one place at a time, so the keys overlap)
+template <int D>
+std::uint64_t dthLargest(const std::uint64_t* keys, std::size_t m) {
+  std::uint64_t top[D];
+  for (int j = 0; j < D; ++j) top[j] = 0;
+  for (std::size_t e = 0; e < m; ++e) {
+    std::uint64_t x = keys[e];
+    for (int j = 0; j < D; ++j) {
+      const std::uint64_t t = top[j];
+      const bool above = t > x;
+      top[j] = above ? t : x;
+      x = above ? x : t;
+    }
+  }
+  return top[D - 1];
+}
+
+}  // namespace
+
+std::size_t keepSmallest(std::uint64_t* keys, std::size_t m, std::size_t K) {
+  if (m <= K) return m;
+  if (K == 0) return 0;
+  if (m - K <= 8) {
+    // the cut: the (m − K)-th largest key (above the K smallest), then the keys below it, in order
+    std::uint64_t cut = 0;
+    switch (m - K) {
+      case 1:
+        cut = dthLargest<1>(keys, m);
+        break;
+      case 2:
+        cut = dthLargest<2>(keys, m);
+        break;
+      case 3:
+        cut = dthLargest<3>(keys, m);
+        break;
+      case 4:
+        cut = dthLargest<4>(keys, m);
+        break;
+      case 5:
+        cut = dthLargest<5>(keys, m);
+        break;
+      case 6:
+        cut = dthLargest<6>(keys, m);
+        break;
+      case 7:
+        cut = dthLargest<7>(keys, m);
+        break;
+      default:
+        cut = dthLargest<8>(keys, m);
+        break;
+    }
+    std::size_t out = 0;
+    for (std::size_t e = 0; e < m; ++e) {
+      const std::uint64_t x = keys[e];
+      keys[out] = x;
+      out += static_cast<std::size_t>(x < cut);
+    }
+    return out;
+  }
+  // many: order by key, keep K, and put them back in their given order (the low half of a key)
+  std::nth_element(keys, keys + K, keys + m);
+  std::sort(keys, keys + K, [](std::uint64_t x, std::uint64_t y) { return keyIndex(x) < keyIndex(y); });
+  return K;
 }
 
 }  // namespace swarmsim

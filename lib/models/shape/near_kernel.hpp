@@ -50,6 +50,11 @@ struct alignas(64) NearScratch {
 void classifyCandidates(std::size_t m, const Vec3& q, float threshold, float near2, float reach2, NearScratch& scratch,
                         LaneSet lanes, std::size_t counts[3]);
 
+// Keeps the K smallest of the distinct keys[0, m) in their given order at the front; returns how many are kept
+// (min(m, K)). With at most 8 too many (the usual case) one pass finds the (m − K)-th largest key, then one
+// pass keeps the keys below it; with more, nth_element and a sort by the keys' low halves (their order given).
+std::size_t keepSmallest(std::uint64_t* keys, std::size_t m, std::size_t K);
+
 // The rows gatherClassify reads: kRowFloats floats per sorted position, x, y, z, 0, then the velocity
 // vx, vy, vz, 0 (a neighbour's velocity comes in the cache line its position came in)
 constexpr std::size_t kRowFloats = 8;

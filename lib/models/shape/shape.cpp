@@ -51,37 +51,6 @@ std::uint64_t groupSeed(std::uint64_t seed, std::size_t group) {
   return z ^ (z >> 31);
 }
 
-// keeps the K smallest of keys[0, m) in their given order; returns how many are kept
-std::size_t keepSmallest(std::uint64_t* keys, std::size_t m, std::size_t K) {
-  if (m <= K) return m;
-  if (m - K <= 8) {
-    // a few too many (the usual case): the (m - K)-th largest key, one pass per place (each the largest
-    // below the last; the keys differ in their low half, and the one found is above the smallest, so above
-    // 0), then one pass that keeps the keys below it. No branch on the data, and each pass's chain is
-    // through a register only.
-    std::uint64_t cut = ~std::uint64_t{0};
-    for (std::size_t d = m - K; d > 0; --d) {
-      std::uint64_t best = 0;
-      for (std::size_t e = 0; e < m; ++e) {
-        const std::uint64_t x = keys[e];
-        best = x < cut && x > best ? x : best;
-      }
-      cut = best;
-    }
-    std::size_t out = 0;
-    for (std::size_t e = 0; e < m; ++e) {
-      const std::uint64_t x = keys[e];
-      keys[out] = x;
-      out += static_cast<std::size_t>(x < cut);
-    }
-    return out;
-  }
-  // many: order by key, keep K, and put them back in their given order (the low half of a key)
-  std::nth_element(keys, keys + K, keys + m);
-  std::sort(keys, keys + K, [](std::uint64_t x, std::uint64_t y) { return keyIndex(x) < keyIndex(y); });
-  return K;
-}
-
 // room per insect in the near lists (NearLists): about the candidates within (1 + skin) times the K-th
 // distance in three dimensions, with F_con's and MDE's few
 std::size_t listCapacity(std::size_t K) { return 4 * K + 16; }
