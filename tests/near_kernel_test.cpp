@@ -232,6 +232,13 @@ TEST_CASE("near kernels: classifyCandidates and gatherClassify sort each candida
         CHECK(gs.cj[e] == cand[e]);
         CHECK((gs.cx[e] == ns.cx[e] && gs.cy[e] == ns.cy[e] && gs.cz[e] == ns.cz[e] && gs.cd2[e] == ns.cd2[e]));
       }
+      // F_con's entries packed: the offsets and squared distances of want[0], in order, from both
+      for (std::size_t c = 0; c < want[0].size(); ++c) {
+        const std::uint32_t e = want[0][c];
+        for (const NearScratch* sc : {&ns, &gs}) {
+          CHECK((sc->dx[c] == ns.cx[e] && sc->dy[c] == ns.cy[e] && sc->dz[c] == ns.cz[e] && sc->d2[c] == ns.cd2[e]));
+        }
+      }
     }
   }
 }

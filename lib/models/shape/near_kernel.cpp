@@ -139,9 +139,26 @@ inline void classifyLanes(std::size_t m, float qx, float qy, float qz, float thr
     const auto base = static_cast<std::uint32_t>(e);
     const unsigned inCon = L::mask(L::band(L::lt(man, thr), L::gt(d2, zero)));
     const unsigned inNear = L::mask(L::le(d2, vnear)), inReach = L::mask(L::le(d2, vreach));
+#if SWARMSIM_X86_LANES
+    if constexpr (kAvx2) {  // F_con's entries packed on the way (below: by their indices)
+      packLaneFloats(inCon, dx.a, s.dx.data() + nc);
+      packLaneFloats(inCon, dy.a, s.dy.data() + nc);
+      packLaneFloats(inCon, dz.a, s.dz.data() + nc);
+      packLaneFloats(inCon, d2.a, s.d2.data() + nc);
+    }
+#endif
     nc += packSetLanes<kAvx2>(base, inCon, con + nc);
     nn += packSetLanes<kAvx2>(base, inNear, nr + nn);
     nm += packSetLanes<kAvx2>(base, inReach, md + nm);
+  }
+  if constexpr (!kAvx2) {
+    for (std::size_t c = 0; c < nc; ++c) {
+      const std::uint32_t e = con[c];
+      s.dx[c] = s.cx[e];
+      s.dy[c] = s.cy[e];
+      s.dz[c] = s.cz[e];
+      s.d2[c] = s.cd2[e];
+    }
   }
   counts[0] = nc;
   counts[1] = nn;

@@ -482,18 +482,10 @@ class ShapeModel final : public Model {
         cand = lists_.build(static_cast<std::uint32_t>(k), cover, grid_, ids_.data(), ns.ids, ns.sortKeys, m, lanes);
         ++ns.rebuilds;
       }
-      if (shaped) {  // F_con over its entries, packed in id order
-        const std::size_t mc = counts[0];
-        for (std::size_t c = 0; c < mc; ++c) {
-          const std::uint32_t e = ns.conIdx[c];
-          ns.dx[c] = ns.cx[e];
-          ns.dy[c] = ns.cy[e];
-          ns.dz[c] = ns.cz[e];
-          ns.d2[c] = ns.cd2[e];
-        }
+      if (shaped) {  // F_con over its entries, packed in id order (by gatherClassify)
         Vec3 sum;
         int count = 0;
-        constraintSumScratch(mc, kh, inv2s2, ns, avx, sum, count);
+        constraintSumScratch(counts[0], kh, inv2s2, ns, avx, sum, count);
         fCon = count > 0 ? Vec3(sum * (-wCon / static_cast<float>(count))) : Vec3::Zero();
       }
       std::uint64_t* keys = ns.keys.data();
