@@ -1,9 +1,10 @@
 // The shape model's near-field kernels (lib/models/shape/near_kernel.hpp) and the lanes they are built on
 // (lib/core/lanes.hpp): the vector e^x against std::exp, the same bits on every lane type, and each kernel
 // against the scalar sums of shape.hpp (ShapeConstraintSum, ZonalSum) over the same entries.
-#include <catch2/catch.hpp>
+#include "models/shape/near_kernel.hpp"
 
 #include <algorithm>
+#include <catch2/catch.hpp>
 #include <cmath>
 #include <cstring>
 #include <random>
@@ -11,8 +12,8 @@
 
 #include "core/lanes.hpp"
 #include "lane_sets.hpp"
-#include "models/shape/near_kernel.hpp"
 #include "models/shape/shape.hpp"
+#include "spatial/nearest.hpp"
 #include "spatial/uniform_grid.hpp"
 
 using namespace swarmsim;
@@ -231,6 +232,12 @@ TEST_CASE("near kernels: classifyCandidates and gatherClassify sort each candida
       for (std::size_t e = 0; e < m; ++e) {
         CHECK(gs.cj[e] == cand[e]);
         CHECK((gs.cx[e] == ns.cx[e] && gs.cy[e] == ns.cy[e] && gs.cz[e] == ns.cz[e] && gs.cd2[e] == ns.cd2[e]));
+      }
+      // the near entries' keys, in order, from both
+      for (std::size_t c = 0; c < want[1].size(); ++c) {
+        const std::uint32_t e = want[1][c];
+        CHECK(ns.keys[c] == neighbourKey(ns.cd2[e], e));
+        CHECK(gs.keys[c] == neighbourKey(ns.cd2[e], e));
       }
       // F_con's entries packed: the offsets and squared distances of want[0], in order, from both
       for (std::size_t c = 0; c < want[0].size(); ++c) {

@@ -114,6 +114,21 @@ struct ScratchPositions {
   }
 };
 
+#if SWARMSIM_X86_LANES
+// the keys neighbourKey(d2[l], base + l) of the set lanes l of `mask`, in order, to out[0, popcount) (writes
+// eight): the index pack's lane permutation applied to the squared distances' bits, then each index and its
+// distance's bits interleaved into one 64-bit key
+SWARMSIM_AVX2 inline void packNearKeys(unsigned mask, std::uint32_t base, __m256 d2, std::uint64_t* out) {
+  const __m256i pick = _mm256_load_si256(reinterpret_cast<const __m256i*>(kLanePack.lanes[mask]));
+  const __m256i index = _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(base)), pick);
+  const __m256i bits = _mm256_permutevar8x32_epi32(_mm256_castps_si256(d2), pick);
+  const __m256i lo = _mm256_unpacklo_epi32(index, bits),
+                hi = _mm256_unpackhi_epi32(index, bits);  // keys 0 1 4 5, 2 3 6 7
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(out), _mm256_permute2x128_si256(lo, hi, 0x20));
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(out + 4), _mm256_permute2x128_si256(lo, hi, 0x31));
+}
+#endif
+
 // kAvx2: the indices of each class packed by an AVX2 table look-up (packSetLanes), without a branch per
 // entry; the same result as the loop over the set bits. `positions(e, x, y, z)` gives candidates e..e+7.
 template <typename L, bool kAvx2, typename Positions>
@@ -148,10 +163,14 @@ inline void classifyLanes(std::size_t m, float qx, float qy, float qz, float thr
     }
 #endif
     nc += packSetLanes<kAvx2>(base, inCon, con + nc);
+#if SWARMSIM_X86_LANES
+    if constexpr (kAvx2) packNearKeys(inNear, base, d2.a, s.keys.data() + nn);  // (below: by their indices)
+#endif
     nn += packSetLanes<kAvx2>(base, inNear, nr + nn);
     nm += packSetLanes<kAvx2>(base, inReach, md + nm);
   }
   if constexpr (!kAvx2) {
+    for (std::size_t c = 0; c < nn; ++c) s.keys[c] = neighbourKey(s.cd2[nr[c]], nr[c]);
     for (std::size_t c = 0; c < nc; ++c) {
       const std::uint32_t e = con[c];
       s.dx[c] = s.cx[e];

@@ -46,7 +46,8 @@ struct alignas(64) NearScratch {
 // return their offsets from q and scratch.cd2 their squared distances; the indices e (ascending) of those
 // with Manhattan length < threshold and d2 > 0 (F_con's) go to conIdx, with d2 <= near2 to nearIdx, with
 // d2 <= reach2 to mdeIdx, and counts[0..2] say how many; F_con's entries' offsets and squared distances also
-// packed in that order in scratch.dx/dy/dz/d2[0, counts[0]). The lanes past m are padded here. `lanes`: which
+// packed in that order in scratch.dx/dy/dz/d2[0, counts[0]), and the near entries' keys neighbourKey(d2, e)
+// (spatial/nearest.hpp) in scratch.keys[0, counts[1]). The lanes past m are padded here. `lanes`: which
 // instruction set (laneSet(); every one gives the same result).
 void classifyCandidates(std::size_t m, const Vec3& q, float threshold, float near2, float reach2, NearScratch& scratch,
                         LaneSet lanes, std::size_t counts[3]);

@@ -472,7 +472,7 @@ class ShapeModel final : public Model {
           const float c2 = std::min(cover, rAtt) * std::min(cover, rAtt);
           mk = 0;
           for (std::size_t e = 0; e < m; ++e) {
-            ns.nearIdx[mk] = static_cast<std::uint32_t>(e);
+            ns.keys[mk] = neighbourKey(ns.cd2[e], static_cast<std::uint32_t>(e));  // ties: the lower id
             mk += static_cast<std::size_t>(ns.cd2[e] <= c2);
           }
         }
@@ -488,11 +488,7 @@ class ShapeModel final : public Model {
         constraintSumScratch(counts[0], kh, inv2s2, ns, avx, sum, count);
         fCon = count > 0 ? Vec3(sum * (-wCon / static_cast<float>(count))) : Vec3::Zero();
       }
-      std::uint64_t* keys = ns.keys.data();
-      for (std::size_t c = 0; c < mk; ++c) {
-        const std::uint32_t e = ns.nearIdx[c];
-        keys[c] = neighbourKey(ns.cd2[e], e);  // ties: the lower id
-      }
+      std::uint64_t* keys = ns.keys.data();  // F_int's candidates (gatherClassify's, or those of the loop above)
       // MDE's candidates (within its reach now), kept for the MDE pass when they fit its slot
       const std::size_t mm = counts[2];
       mdeCount_[k] = mm <= kMdeRoom ? static_cast<std::uint8_t>(mm) : kMdeNone;
