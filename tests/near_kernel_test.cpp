@@ -67,12 +67,13 @@ float* rowsOf(AlignedFloats& store, const std::vector<Vec3>& pts, const std::vec
   return rows;
 }
 
-[[maybe_unused]] bool sameBits(const Vec3& a, const Vec3& b) { return std::memcmp(a.data(), b.data(), sizeof(float) * 3) == 0; }
+[[maybe_unused]] bool sameBits(const Vec3& a, const Vec3& b) {
+  return std::memcmp(a.data(), b.data(), sizeof(float) * 3) == 0;
+}
 
 }  // namespace
 
-TEST_CASE("lanes: e^x within 3e-7 of std::exp on [-20, 3], the same bits on every lane type",
-          "[shape][lanes]") {
+TEST_CASE("lanes: e^x within 3e-7 of std::exp on [-20, 3], the same bits on every lane type", "[shape][lanes]") {
   std::vector<float> x;
   for (int i = 0; i <= 23000; ++i) x.push_back(-20.0f + 0.001f * static_cast<float>(i));
   x.push_back(-200.0f);  // clamped to -87: tiny but finite
@@ -82,7 +83,8 @@ TEST_CASE("lanes: e^x within 3e-7 of std::exp on [-20, 3], the same bits on ever
   for (std::size_t i = 0; i + 1 < x.size(); ++i) {
     if (x[i] < -87.0f) continue;
     const double e = std::exp(static_cast<double>(x[i]));
-    (x[i] >= -3.0f ? worst : worstFar) = std::max(x[i] >= -3.0f ? worst : worstFar, std::abs(static_cast<double>(s[i]) - e) / e);
+    (x[i] >= -3.0f ? worst : worstFar) =
+        std::max(x[i] >= -3.0f ? worst : worstFar, std::abs(static_cast<double>(s[i]) - e) / e);
   }
   CHECK(worst < 3e-7);
   CHECK(worstFar < 3e-7);
@@ -115,7 +117,8 @@ TEST_CASE("near kernels: F_con and F_int sums equal the scalar ones, and AVX equ
 
     // F_con: Manhattan threshold 0.9, sigma 0.3
     ShapeConstraintSum ref(0.9f, 0.3f);
-    for (std::size_t i = 0; i < n; ++i) ref.add(pts[i].x() - q.x(), pts[i].y() - q.y(), pts[i].z() - q.z(), block.d2[i]);
+    for (std::size_t i = 0; i < n; ++i)
+      ref.add(pts[i].x() - q.x(), pts[i].y() - q.y(), pts[i].z() - q.z(), block.d2[i]);
     NearScratch ns;
     Vec3 sum[2];
     int count[2] = {0, 0};
@@ -130,7 +133,8 @@ TEST_CASE("near kernels: F_con and F_int sums equal the scalar ones, and AVX equ
       constraintSumScratch(n, 0.9f, 1.0f / (2.0f * 0.3f * 0.3f), ns, avx == 1, sum[avx], count[avx]);
     }
     CHECK(count[0] == ref.count);
-    const Vec3 fRef = ref.force(1.0f), f = ref.count > 0 ? Vec3(sum[0] * (-1.0f / static_cast<float>(count[0]))) : Vec3::Zero();
+    const Vec3 fRef = ref.force(1.0f),
+               f = ref.count > 0 ? Vec3(sum[0] * (-1.0f / static_cast<float>(count[0]))) : Vec3::Zero();
     CHECK((f - fRef).norm() <= 1e-5f * (1.0f + fRef.norm()));
 #if SWARMSIM_X86_LANES
     if (__builtin_cpu_supports("avx")) {
@@ -172,82 +176,89 @@ TEST_CASE("near kernels: F_con and F_int sums equal the scalar ones, and AVX equ
   }
 }
 
-TEST_CASE("near kernels: classifyCandidates and gatherClassify sort each candidate into its classes, the same on every lane set",
-          "[shape][lanes]") {
+TEST_CASE(
+    "near kernels: classifyCandidates and gatherClassify sort each candidate into its classes, the same on every lane "
+    "set",
+    "[shape][lanes]") {
   std::mt19937 rng(9);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   const std::vector<LaneSet> sets = swarmsim_test::laneSetsOfThisCpu();
-  const float threshold = 0.9f, near2 = 0.4f, reach2 = 0.1f;
-  for (const std::size_t m : {0u, 1u, 7u, 8u, 9u, 15u, 16u, 17u, 33u, 64u, 301u}) {
-    std::vector<Vec3> pts(m);
-    for (auto& p : pts) p = Vec3(u(rng), u(rng), u(rng));
-    const Vec3 q(0.1f, -0.2f, 0.05f);
-    if (m > 2) pts[2] = q;  // at the query: d2 = 0, in the near and reach classes but not F_con's
-    // the classes by a plain loop
-    std::vector<std::uint32_t> want[3];
-    for (std::size_t e = 0; e < m; ++e) {
-      const float dx = pts[e].x() - q.x(), dy = pts[e].y() - q.y(), dz = pts[e].z() - q.z();
-      const float d2 = dx * dx + dy * dy + dz * dz;
-      const float man = std::abs(dx) + std::abs(dy) + std::abs(dz);
-      if (man < threshold && d2 > 0.0f) want[0].push_back(static_cast<std::uint32_t>(e));
-      if (d2 <= near2) want[1].push_back(static_cast<std::uint32_t>(e));
-      if (d2 <= reach2) want[2].push_back(static_cast<std::uint32_t>(e));
-    }
-    for (const LaneSet set : sets) {
-      INFO("m = " << m << ", lane set " << static_cast<int>(set));
-      NearScratch ns;
-      ns.reserveCandidates(m);
+  // sparse classes, and classes that take in (nearly) every candidate of a chunk of sixteen
+  struct Radii {
+    float threshold, near2, reach2;
+  };
+  for (const Radii radii : {Radii{0.9f, 0.4f, 0.1f}, Radii{3.5f, 12.0f, 2.0f}})
+    for (const std::size_t m : {0u, 1u, 7u, 8u, 9u, 15u, 16u, 17u, 33u, 64u, 301u}) {
+      const float threshold = radii.threshold, near2 = radii.near2, reach2 = radii.reach2;
+      std::vector<Vec3> pts(m);
+      for (auto& p : pts) p = Vec3(u(rng), u(rng), u(rng));
+      const Vec3 q(0.1f, -0.2f, 0.05f);
+      if (m > 2) pts[2] = q;  // at the query: d2 = 0, in the near and reach classes but not F_con's
+      // the classes by a plain loop
+      std::vector<std::uint32_t> want[3];
       for (std::size_t e = 0; e < m; ++e) {
-        ns.cx[e] = pts[e].x();
-        ns.cy[e] = pts[e].y();
-        ns.cz[e] = pts[e].z();
-      }
-      std::size_t counts[3];
-      classifyCandidates(m, q, threshold, near2, reach2, ns, set, counts);
-      const std::vector<std::uint32_t>* got[3] = {&ns.conIdx, &ns.nearIdx, &ns.mdeIdx};
-      for (int c = 0; c < 3; ++c) {
-        REQUIRE(counts[c] == want[c].size());
-        CHECK(std::equal(want[c].begin(), want[c].end(), got[c]->begin()));
-      }
-      for (std::size_t e = 0; e < m; ++e) {  // the offsets and squared distances, in place
         const float dx = pts[e].x() - q.x(), dy = pts[e].y() - q.y(), dz = pts[e].z() - q.z();
-        CHECK((ns.cx[e] == dx && ns.cy[e] == dy && ns.cz[e] == dz));
-        CHECK(ns.cd2[e] == dx * dx + dy * dy + dz * dz);
+        const float d2 = dx * dx + dy * dy + dz * dz;
+        const float man = std::abs(dx) + std::abs(dy) + std::abs(dz);
+        if (man < threshold && d2 > 0.0f) want[0].push_back(static_cast<std::uint32_t>(e));
+        if (d2 <= near2) want[1].push_back(static_cast<std::uint32_t>(e));
+        if (d2 <= reach2) want[2].push_back(static_cast<std::uint32_t>(e));
       }
-      // the same from rows: candidate e is point e at sorted position m - 1 - e, the far row at m
-      std::vector<std::size_t> at(m);
-      std::vector<std::uint32_t> cand(m);
-      for (std::size_t e = 0; e < m; ++e) cand[e] = static_cast<std::uint32_t>(at[e] = m - 1 - e);
-      AlignedFloats store;
-      const float* rows = rowsOf(store, pts, nullptr, &at);
-      NearScratch gs;
-      std::size_t gotCounts[3];
-      gatherClassify(m, cand.data(), rows, static_cast<std::uint32_t>(m), q, threshold, near2, reach2, gs, set,
-                     gotCounts);
-      const std::vector<std::uint32_t>* fromRows[3] = {&gs.conIdx, &gs.nearIdx, &gs.mdeIdx};
-      for (int c = 0; c < 3; ++c) {
-        REQUIRE(gotCounts[c] == want[c].size());
-        CHECK(std::equal(want[c].begin(), want[c].end(), fromRows[c]->begin()));
-      }
-      for (std::size_t e = 0; e < m; ++e) {
-        CHECK(gs.cj[e] == cand[e]);
-        CHECK((gs.cx[e] == ns.cx[e] && gs.cy[e] == ns.cy[e] && gs.cz[e] == ns.cz[e] && gs.cd2[e] == ns.cd2[e]));
-      }
-      // the near entries' keys, in order, from both
-      for (std::size_t c = 0; c < want[1].size(); ++c) {
-        const std::uint32_t e = want[1][c];
-        CHECK(ns.keys[c] == neighbourKey(ns.cd2[e], e));
-        CHECK(gs.keys[c] == neighbourKey(ns.cd2[e], e));
-      }
-      // F_con's entries packed: the offsets and squared distances of want[0], in order, from both
-      for (std::size_t c = 0; c < want[0].size(); ++c) {
-        const std::uint32_t e = want[0][c];
-        for (const NearScratch* sc : {&ns, &gs}) {
-          CHECK((sc->dx[c] == ns.cx[e] && sc->dy[c] == ns.cy[e] && sc->dz[c] == ns.cz[e] && sc->d2[c] == ns.cd2[e]));
+      for (const LaneSet set : sets) {
+        INFO("m = " << m << ", lane set " << static_cast<int>(set));
+        NearScratch ns;
+        ns.reserveCandidates(m);
+        for (std::size_t e = 0; e < m; ++e) {
+          ns.cx[e] = pts[e].x();
+          ns.cy[e] = pts[e].y();
+          ns.cz[e] = pts[e].z();
+        }
+        std::size_t counts[3];
+        classifyCandidates(m, q, threshold, near2, reach2, ns, set, counts);
+        const std::vector<std::uint32_t>* got[3] = {&ns.conIdx, &ns.nearIdx, &ns.mdeIdx};
+        for (int c = 0; c < 3; ++c) {
+          REQUIRE(counts[c] == want[c].size());
+          CHECK(std::equal(want[c].begin(), want[c].end(), got[c]->begin()));
+        }
+        for (std::size_t e = 0; e < m; ++e) {  // the offsets and squared distances, in place
+          const float dx = pts[e].x() - q.x(), dy = pts[e].y() - q.y(), dz = pts[e].z() - q.z();
+          CHECK((ns.cx[e] == dx && ns.cy[e] == dy && ns.cz[e] == dz));
+          CHECK(ns.cd2[e] == dx * dx + dy * dy + dz * dz);
+        }
+        // the same from rows: candidate e is point e at sorted position m - 1 - e, the far row at m
+        std::vector<std::size_t> at(m);
+        std::vector<std::uint32_t> cand(m);
+        for (std::size_t e = 0; e < m; ++e) cand[e] = static_cast<std::uint32_t>(at[e] = m - 1 - e);
+        AlignedFloats store;
+        const float* rows = rowsOf(store, pts, nullptr, &at);
+        NearScratch gs;
+        std::size_t gotCounts[3];
+        gatherClassify(m, cand.data(), rows, static_cast<std::uint32_t>(m), q, threshold, near2, reach2, gs, set,
+                       gotCounts);
+        const std::vector<std::uint32_t>* fromRows[3] = {&gs.conIdx, &gs.nearIdx, &gs.mdeIdx};
+        for (int c = 0; c < 3; ++c) {
+          REQUIRE(gotCounts[c] == want[c].size());
+          CHECK(std::equal(want[c].begin(), want[c].end(), fromRows[c]->begin()));
+        }
+        for (std::size_t e = 0; e < m; ++e) {
+          CHECK(gs.cj[e] == cand[e]);
+          CHECK((gs.cx[e] == ns.cx[e] && gs.cy[e] == ns.cy[e] && gs.cz[e] == ns.cz[e] && gs.cd2[e] == ns.cd2[e]));
+        }
+        // the near entries' keys, in order, from both
+        for (std::size_t c = 0; c < want[1].size(); ++c) {
+          const std::uint32_t e = want[1][c];
+          CHECK(ns.keys[c] == neighbourKey(ns.cd2[e], e));
+          CHECK(gs.keys[c] == neighbourKey(ns.cd2[e], e));
+        }
+        // F_con's entries packed: the offsets and squared distances of want[0], in order, from both
+        for (std::size_t c = 0; c < want[0].size(); ++c) {
+          const std::uint32_t e = want[0][c];
+          for (const NearScratch* sc : {&ns, &gs}) {
+            CHECK((sc->dx[c] == ns.cx[e] && sc->dy[c] == ns.cy[e] && sc->dz[c] == ns.cz[e] && sc->d2[c] == ns.cd2[e]));
+          }
         }
       }
     }
-  }
 }
 
 TEST_CASE("near kernels: farthestRow2 gives the scalar loop's squared distance on every lane set",
