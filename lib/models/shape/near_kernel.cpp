@@ -155,19 +155,23 @@ inline void classifyLanes(std::size_t m, float qx, float qy, float qz, float thr
     const unsigned inCon = L::mask(L::band(L::lt(man, thr), L::gt(d2, zero)));
     const unsigned inNear = L::mask(L::le(d2, vnear)), inReach = L::mask(L::le(d2, vreach));
 #if SWARMSIM_X86_LANES
-    if constexpr (kAvx2) {  // F_con's entries packed on the way (below: by their indices)
-      packLaneFloats(inCon, dx.a, s.dx.data() + nc);
-      packLaneFloats(inCon, dy.a, s.dy.data() + nc);
-      packLaneFloats(inCon, dz.a, s.dz.data() + nc);
-      packLaneFloats(inCon, d2.a, s.d2.data() + nc);
+    // F_con's entries packed on the way (below: by their indices); few chunks have any (under one an insect on
+    // the gathered swarms), so the branch is cheaper than the permutes
+    if constexpr (kAvx2) {
+      if (inCon != 0) {
+        packLaneFloats(inCon, dx.a, s.dx.data() + nc);
+        packLaneFloats(inCon, dy.a, s.dy.data() + nc);
+        packLaneFloats(inCon, dz.a, s.dz.data() + nc);
+        packLaneFloats(inCon, d2.a, s.d2.data() + nc);
+      }
     }
 #endif
-    nc += packSetLanes<kAvx2>(base, inCon, con + nc);
+    if (inCon != 0) nc += packSetLanes<kAvx2>(base, inCon, con + nc);
 #if SWARMSIM_X86_LANES
     if constexpr (kAvx2) packNearKeys(inNear, base, d2.a, s.keys.data() + nn);  // (below: by their indices)
 #endif
     nn += packSetLanes<kAvx2>(base, inNear, nr + nn);
-    nm += packSetLanes<kAvx2>(base, inReach, md + nm);
+    if (inReach != 0) nm += packSetLanes<kAvx2>(base, inReach, md + nm);  // (as rare as F_con's)
   }
   if constexpr (!kAvx2) {
     for (std::size_t c = 0; c < nn; ++c) s.keys[c] = neighbourKey(s.cd2[nr[c]], nr[c]);
