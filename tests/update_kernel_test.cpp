@@ -72,20 +72,10 @@ TEST_CASE("shape update: the SIMD lanes give the one-insect-at-a-time update's b
       const std::size_t n = 61;
       const Case c = makeCase(rng, n);
       InsectUpdate u;
-      u.x = c.x.data();
-      u.y = c.y.data();
-      u.z = c.z.data();
-      u.vx = c.vx.data();
-      u.vy = c.vy.data();
-      u.vz = c.vz.data();
-      u.cnx = c.cnx.data();
-      u.cny = c.cny.data();
-      u.cnz = c.cnz.data();
-      if (shaped) {
-        u.sx = c.sx.data();
-        u.sy = c.sy.data();
-        u.sz = c.sz.data();
-      }
+      u.x = {c.x.data(), c.y.data(), c.z.data()};
+      u.v = {c.vx.data(), c.vy.data(), c.vz.data()};
+      u.noise = {c.cnx.data(), c.cny.data(), c.cnz.data()};
+      if (shaped) u.sample = {c.sx.data(), c.sy.data(), c.sz.data()};
       u.alpha = alpha;
       u.wDis = 2.5f;
       u.invRange = 1.0f / 1.7f;
@@ -119,12 +109,8 @@ TEST_CASE("shape update: the SIMD lanes give the one-insect-at-a-time update's b
           for (std::size_t count = 0; first + count <= n; ++count) {
             std::vector<float> got[6];
             for (auto& g : got) g.assign(n, 99.0f);
-            u.nvx = got[0].data();
-            u.nvy = got[1].data();
-            u.nvz = got[2].data();
-            u.tx = got[3].data();
-            u.ty = got[4].data();
-            u.tz = got[5].data();
+            u.nv = {got[0].data(), got[1].data(), got[2].data()};
+            u.t = {got[3].data(), got[4].data(), got[5].data()};
             const float* fi[3] = {c.fi[0].data() + first, c.fi[1].data() + first, c.fi[2].data() + first};
             const float* fc[3] = {c.fc[0].data() + first, c.fc[1].data() + first, c.fc[2].data() + first};
             updateInsects(u, first, count, fi, fc, lanes);

@@ -508,33 +508,10 @@ std::size_t keepSmallest(std::uint64_t* keys, std::size_t m, std::size_t K) {
   if (K == 0) return 0;
   if (m - K <= 8) {
     // the cut: the (m − K)-th largest key (above the K smallest), then the keys below it, in order
-    std::uint64_t cut = 0;
-    switch (m - K) {
-      case 1:
-        cut = dthLargest<1>(keys, m);
-        break;
-      case 2:
-        cut = dthLargest<2>(keys, m);
-        break;
-      case 3:
-        cut = dthLargest<3>(keys, m);
-        break;
-      case 4:
-        cut = dthLargest<4>(keys, m);
-        break;
-      case 5:
-        cut = dthLargest<5>(keys, m);
-        break;
-      case 6:
-        cut = dthLargest<6>(keys, m);
-        break;
-      case 7:
-        cut = dthLargest<7>(keys, m);
-        break;
-      default:
-        cut = dthLargest<8>(keys, m);
-        break;
-    }
+    using Cut = std::uint64_t (*)(const std::uint64_t*, std::size_t);
+    static constexpr Cut kCut[8] = {dthLargest<1>, dthLargest<2>, dthLargest<3>, dthLargest<4>,
+                                    dthLargest<5>, dthLargest<6>, dthLargest<7>, dthLargest<8>};
+    const std::uint64_t cut = kCut[m - K - 1](keys, m);
     std::size_t out = 0;
     for (std::size_t e = 0; e < m; ++e) {
       const std::uint64_t x = keys[e];

@@ -537,26 +537,12 @@ class ShapeModel final : public Model {
     // speed on SIMD lanes (update_kernel.hpp), then eq. 8-9 one insect at a time: near an obstacle the velocity
     // ramps toward the tangent (only an approach is bent)
     InsectUpdate update;
-    update.x = sx;
-    update.y = sy;
-    update.z = sz;
-    update.vx = vx_.data();
-    update.vy = vy_.data();
-    update.vz = vz_.data();
-    update.cnx = cnx_.data();
-    update.cny = cny_.data();
-    update.cnz = cnz_.data();
-    if (shaped) {
-      update.sx = tgx_.data();
-      update.sy = tgy_.data();
-      update.sz = tgz_.data();
-    }
-    update.nvx = nvx_.data();
-    update.nvy = nvy_.data();
-    update.nvz = nvz_.data();
-    update.tx = tx_.data();
-    update.ty = ty_.data();
-    update.tz = tz_.data();
+    update.x = {sx, sy, sz};
+    update.v = {vx_.data(), vy_.data(), vz_.data()};
+    update.noise = {cnx_.data(), cny_.data(), cnz_.data()};
+    if (shaped) update.sample = {tgx_.data(), tgy_.data(), tgz_.data()};
+    update.nv = {nvx_.data(), nvy_.data(), nvz_.data()};
+    update.t = {tx_.data(), ty_.data(), tz_.data()};
     update.alpha = alpha;
     update.wDis = wDis;
     update.invRange = invRange;

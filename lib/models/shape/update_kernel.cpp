@@ -68,8 +68,16 @@ inline void updateLanes(const InsectUpdate& u, const UpdateArrays& a) {
 template <typename L>
 void updateBlock(const InsectUpdate& u, std::size_t first, std::size_t count, const float* const fInt[3],
                  const float* const fCon[3]) {
-  const float* const in[12] = {u.x, u.y, u.z, u.vx, u.vy, u.vz, u.cnx, u.cny, u.cnz, u.sx, u.sy, u.sz};
-  float* const out[6] = {u.nvx, u.nvy, u.nvz, u.tx, u.ty, u.tz};
+  const float* in[12];
+  float* out[6];
+  for (int c = 0; c < 3; ++c) {
+    in[c] = u.x[c];
+    in[3 + c] = u.v[c];
+    in[6 + c] = u.noise[c];
+    in[9 + c] = u.sample[c];
+    out[c] = u.nv[c];
+    out[3 + c] = u.t[c];
+  }
   std::size_t i = 0;
   for (; i + kLanes <= count; i += kLanes) {
     UpdateArrays a;

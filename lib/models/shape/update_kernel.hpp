@@ -4,6 +4,7 @@
 // operations in the scalar code's order (Eigen's 3-vector norm is sqrt(x² + (y² + z²))), so the result is the
 // same bit for bit on every lane set and for any split of the insects into blocks. Likewise each insect's sample
 // point at the step's time, eight at a time on AVX2.
+#include <array>
 #include <cstddef>
 #include <cstdint>
 
@@ -13,12 +14,12 @@ namespace swarmsim {
 
 // what the update reads and writes, by sorted position k (the arrays of the step)
 struct InsectUpdate {
-  const float *x, *y, *z;        // positions at the start of the step
-  const float *vx, *vy, *vz;     // velocities at the start of the step
-  const float *cnx, *cny, *cnz;  // each insect's curl noise (eq. 4)
-  const float *sx, *sy, *sz;     // each insect's sample point (read only when shaped)
-  float *nvx, *nvy, *nvz;        // out: the new velocities
-  float *tx, *ty, *tz;           // out: the moved positions x + v dt (before MDE, obstacles and walls)
+  std::array<const float *, 3> x{};       // positions at the start of the step
+  std::array<const float *, 3> v{};       // velocities at the start of the step
+  std::array<const float *, 3> noise{};   // each insect's curl noise (eq. 4)
+  std::array<const float *, 3> sample{};  // each insect's sample point (read only when shaped)
+  std::array<float *, 3> nv{};            // out: the new velocities
+  std::array<float *, 3> t{};             // out: the moved positions x + v dt (before MDE, obstacles and walls)
   float alpha = 0.7f;            // α of eq. 1
   float wDis = 0.0f;             // ω_dis of eq. 6
   float invRange = 1.0f;         // 1 / the influence range of eq. 7, 1/m
