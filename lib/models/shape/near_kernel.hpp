@@ -20,7 +20,8 @@ namespace swarmsim {
 // per-thread scratch of the kernels (grows rarely, never shrinks)
 struct alignas(64) NearScratch {
   std::vector<float> dx, dy, dz, d2, ux, uy, uz;
-  std::vector<std::uint64_t> keys;
+  std::vector<std::uint64_t> keys;   // F_int's candidates (classifyCandidates' output; room as the candidates')
+  std::vector<std::uint64_t> found;  // an insect's K nearest from the grid (spatial/nearest.hpp), when it has no list
   // one insect's candidates (the shape model's near lists): offsets, squared distances, sorted positions,
   // and the ids of a list built from the grid
   std::vector<float> cx, cy, cz, cd2;

@@ -438,7 +438,7 @@ class ShapeModel final : public Model {
       } else {
         // no last step here (the first step, a resume, a new target): the K-th distance now, from the grid
         // searching outward (spatial/nearest.hpp)
-        std::vector<std::uint64_t>& found = ns.keys;
+        std::vector<std::uint64_t>& found = ns.found;  // (not keys: its room is the candidates')
         found.clear();
         if (nearestKeys(grid_, static_cast<std::uint32_t>(k), K, 0.0f, std::max({cellHint_, kh, 1e-3f * rAtt}), rAtt,
                         found) == K) {
