@@ -344,10 +344,11 @@ SWARMSIM_AVX2 inline std::size_t packLaneIndices(std::uint32_t base, unsigned ma
   _mm256_storeu_si256(reinterpret_cast<__m256i*>(out), v);
   return static_cast<std::size_t>(__builtin_popcount(mask));
 }
-// the values of v's set lanes of `mask`, in order, to out[0, popcount) (writes 8 floats); the count
-SWARMSIM_AVX2 inline std::size_t packLaneFloats(unsigned mask, __m256 v, float* out) {
+// the values in[l] of the set lanes l of `mask`, in order, to out[0, popcount) (writes 8 floats); the count.
+// (in: eight floats in memory, so that no function without the AVX target passes an AVX vector)
+SWARMSIM_AVX2 inline std::size_t packLaneFloats(unsigned mask, const float* in, float* out) {
   const __m256i pick = _mm256_load_si256(reinterpret_cast<const __m256i*>(kLanePack.lanes[mask]));
-  _mm256_storeu_ps(out, _mm256_permutevar8x32_ps(v, pick));
+  _mm256_storeu_ps(out, _mm256_permutevar8x32_ps(_mm256_loadu_ps(in), pick));
   return static_cast<std::size_t>(__builtin_popcount(mask));
 }
 #endif

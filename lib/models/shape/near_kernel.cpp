@@ -117,11 +117,11 @@ struct ScratchPositions {
 #if SWARMSIM_X86_LANES
 // the keys neighbourKey(d2[l], base + l) of the set lanes l of `mask`, in order, to out[0, popcount) (writes
 // eight): the index pack's lane permutation applied to the squared distances' bits, then each index and its
-// distance's bits interleaved into one 64-bit key
-SWARMSIM_AVX2 inline void packNearKeys(unsigned mask, std::uint32_t base, __m256 d2, std::uint64_t* out) {
+// distance's bits interleaved into one 64-bit key (d2: eight floats in memory, as packLaneFloats takes them)
+SWARMSIM_AVX2 inline void packNearKeys(unsigned mask, std::uint32_t base, const float* d2, std::uint64_t* out) {
   const __m256i pick = _mm256_load_si256(reinterpret_cast<const __m256i*>(kLanePack.lanes[mask]));
   const __m256i index = _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(base)), pick);
-  const __m256i bits = _mm256_permutevar8x32_epi32(_mm256_castps_si256(d2), pick);
+  const __m256i bits = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(d2)), pick);
   const __m256i lo = _mm256_unpacklo_epi32(index, bits),
                 hi = _mm256_unpackhi_epi32(index, bits);  // keys 0 1 4 5, 2 3 6 7
   _mm256_storeu_si256(reinterpret_cast<__m256i*>(out), _mm256_permute2x128_si256(lo, hi, 0x20));
@@ -159,16 +159,16 @@ inline void classifyLanes(std::size_t m, float qx, float qy, float qz, float thr
     // the gathered swarms), so the branch is cheaper than the permutes
     if constexpr (kAvx2) {
       if (inCon != 0) {
-        packLaneFloats(inCon, dx.a, s.dx.data() + nc);
-        packLaneFloats(inCon, dy.a, s.dy.data() + nc);
-        packLaneFloats(inCon, dz.a, s.dz.data() + nc);
-        packLaneFloats(inCon, d2.a, s.d2.data() + nc);
+        packLaneFloats(inCon, s.cx.data() + e, s.dx.data() + nc);
+        packLaneFloats(inCon, s.cy.data() + e, s.dy.data() + nc);
+        packLaneFloats(inCon, s.cz.data() + e, s.dz.data() + nc);
+        packLaneFloats(inCon, s.cd2.data() + e, s.d2.data() + nc);
       }
     }
 #endif
     if (inCon != 0) nc += packSetLanes<kAvx2>(base, inCon, con + nc);
 #if SWARMSIM_X86_LANES
-    if constexpr (kAvx2) packNearKeys(inNear, base, d2.a, s.keys.data() + nn);  // (below: by their indices)
+    if constexpr (kAvx2) packNearKeys(inNear, base, s.cd2.data() + e, s.keys.data() + nn);  // (below: by their indices)
 #endif
     nn += packSetLanes<kAvx2>(base, inNear, nr + nn);
     if (inReach != 0) nm += packSetLanes<kAvx2>(base, inReach, md + nm);  // (as rare as F_con's)
