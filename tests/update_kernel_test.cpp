@@ -151,6 +151,7 @@ TEST_CASE("shape update: the sample points on SIMD lanes equal Eigen's placement
       TargetPlacement t;
       t.keyA = keyA.front().data();
       t.keyB = keyB.front().data();
+      t.samples = samples;
       t.f = f;
       t.placed = placed;
       for (int r = 0; r < 3; ++r) {

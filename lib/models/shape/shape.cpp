@@ -329,8 +329,6 @@ class ShapeModel final : public Model {
     std::size_t keyA = 0, keyB = 0;
     float f = 0.0f;
     if (shaped) keyPair(t, keyA, keyB, f);
-    const Eigen::Matrix3f rot = pathRotation(t);
-    const Vec3 shift = pathShift(t), pivot = path_.empty() ? Vec3::Zero() : Vec3(path_.at(0.0).cast<float>());
     const float alpha = static_cast<float>(p_.alpha);
     const float wCon = static_cast<float>(p_.wCon), wDis = static_cast<float>(p_.wDis);
     const float sigma = static_cast<float>(p_.omega * spacing_);
@@ -348,19 +346,7 @@ class ShapeModel final : public Model {
     const float inv2s2 = 1.0f / (2.0f * sigma * sigma);
 
     const LaneSet lanes = laneSet();
-    TargetPlacement placement;  // targetOf's, eight insects at a time (update_kernel.hpp)
-    if (shaped && n > 0) {
-      static_assert(sizeof(Vec3) == 3 * sizeof(float), "the samples' positions as x, y, z floats");
-      placement.keyA = keyPos_[keyA].front().data();
-      placement.keyB = keyPos_[keyB].front().data();
-      placement.f = f;
-      placement.placed = !(shift == Vec3::Zero() && pivot == Vec3::Zero());
-      for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c) placement.rot[3 * r + c] = rot(r, c);
-        placement.shift[r] = shift[r];
-        placement.pivot[r] = pivot[r];
-      }
-    }
+    const TargetPlacement placement = shaped && n > 0 ? placementAt(t, keyA, keyB, f) : TargetPlacement{};
     // eq. 4's curl noise of every insect first, several at a time (the same bits as one at a time)
     for (auto* a : {&cnx_, &cny_, &cnz_}) a->resize(n);
     // (a thread done with its own range takes from the other's: the blended curl near a boundary costs far more)
@@ -368,10 +354,8 @@ class ShapeModel final : public Model {
       noise_.evaluateBatch(sx + first, sy + first, sz + first, last - first, cnx_.data() + first, cny_.data() + first,
                            cnz_.data() + first);
       // each insect's sample point now (random accesses, together: their cache misses overlap)
-      if (shaped) {  // (AVX2's gathers take 3 i in 32 bits: up to 200 million insects, kMaxAgents)
-        placeTargets(placement, sample_.data(), first, last - first, tgx_.data(), tgy_.data(), tgz_.data(),
-                     3 * n < (std::size_t{1} << 31) ? lanes : LaneSet::kSse);
-      }
+      if (shaped)
+        placeTargets(placement, sample_.data(), first, last - first, tgx_.data(), tgy_.data(), tgz_.data(), lanes);
     });
 
     tNoiseStep_ += since(t0);
@@ -553,7 +537,8 @@ class ShapeModel final : public Model {
     struct alignas(64) BlockForces {
       float f[6][kBlock];  // F_int x, y, z, F_con's x, y, z
     };
-    const auto updateBlock = [&](std::size_t a, std::size_t b, const BlockForces& bf, const float* fInt[3]) {
+    // insects [a, b): F_int's components at fInt[c][0, b - a), F_con's in bf
+    const auto updateBlock = [&](std::size_t a, std::size_t b, const float* const fInt[3], const BlockForces& bf) {
       const float* const fCon[3] = {bf.f[3], bf.f[4], bf.f[5]};
       updateInsects(update, a, b - a, fInt, fCon, lanes);
       if (!obstacles) return;
@@ -591,8 +576,8 @@ class ShapeModel final : public Model {
             bf.f[3 + c][k - a] = fCon[c];
           }
         }
-        const float* fInt[3] = {bf.f[0], bf.f[1], bf.f[2]};
-        updateBlock(a, b, bf, fInt);
+        const float* const fInt[3] = {bf.f[0], bf.f[1], bf.f[2]};
+        updateBlock(a, b, fInt, bf);
       });
     } else {
       parallelChunks(n, [&](std::size_t first, std::size_t last, int) {
@@ -610,8 +595,8 @@ class ShapeModel final : public Model {
             const Vec3 fCon = con.force(wCon);
             for (int c = 0; c < 3; ++c) bf.f[3 + c][k - a] = fCon[c];
           }
-          const float* fInt[3] = {fx_.data() + a, fy_.data() + a, fz_.data() + a};
-          updateBlock(a, b, bf, fInt);
+          const float* const fInt[3] = {fx_.data() + a, fy_.data() + a, fz_.data() + a};
+          updateBlock(a, b, fInt, bf);
         }
       });
     }
@@ -872,12 +857,20 @@ class ShapeModel final : public Model {
     std::size_t a = 0, b = 0;
     float f = 0.0f;
     keyPair(t, a, b, f);
-    const Eigen::Matrix3f rot = pathRotation(t);
-    const Vec3 shift = pathShift(t), pivot = path_.empty() ? Vec3::Zero() : Vec3(path_.at(0.0).cast<float>());
+    // sample i's point now, as each step places them (placeTargets, with sample i in place i)
+    std::vector<std::uint32_t> samples(n);
+    std::iota(samples.begin(), samples.end(), 0u);
+    std::vector<float> tx(n), ty(n), tz(n);
+    if (n > 0) {
+      const TargetPlacement placement = placementAt(t, a, b, f);
+      parallelChunks(n, [&](std::size_t first, std::size_t last, int) {
+        placeTargets(placement, samples.data(), first, last - first, tx.data(), ty.data(), tz.data(), laneSet());
+      });
+    }
     std::vector<Vec3> agents(n), targets(n);
     parallelFor(n, [&](std::size_t i) {
       agents[s.id[i]] = s.position(i);
-      targets[i] = place(keyPos_[a][i] + f * (keyPos_[b][i] - keyPos_[a][i]), rot, shift, pivot);
+      targets[i] = Vec3(tx[i], ty[i], tz[i]);
     });
     assign_ = assignTargets(agents, targets);
     tAssignment_ += since(t0);
@@ -913,9 +906,24 @@ class ShapeModel final : public Model {
     const double yaw = std::atan2(b.y(), b.x()) - std::atan2(a.y(), a.x());
     return Eigen::AngleAxisd(yaw, Vec3d::UnitZ()).toRotationMatrix().cast<float>();
   }
-  // a point of the placed mesh carried along the path: C(s) + R (p − C(0))
-  static Vec3 place(const Vec3& p, const Eigen::Matrix3f& rot, const Vec3& shift, const Vec3& pivot) {
-    return shift == Vec3::Zero() && pivot == Vec3::Zero() ? p : Vec3(shift + rot * (p - pivot));
+  // the sample points at time t, keys a and b of the group with weight f on b: the placed mesh carried along the
+  // path, C(s) + R (p − C(0)) (placeTargets, update_kernel.hpp)
+  TargetPlacement placementAt(double t, std::size_t a, std::size_t b, float f) const {
+    static_assert(sizeof(Vec3) == 3 * sizeof(float), "the samples' positions as x, y, z floats");
+    const Eigen::Matrix3f rot = pathRotation(t);
+    const Vec3 shift = pathShift(t), pivot = path_.empty() ? Vec3::Zero() : Vec3(path_.at(0.0).cast<float>());
+    TargetPlacement placement;
+    placement.keyA = keyPos_[a].front().data();
+    placement.keyB = keyPos_[b].front().data();
+    placement.samples = keyPos_[a].size();
+    placement.f = f;
+    placement.placed = !(shift == Vec3::Zero() && pivot == Vec3::Zero());
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) placement.rot[3 * r + c] = rot(r, c);
+      placement.shift[r] = shift[r];
+      placement.pivot[r] = pivot[r];
+    }
+    return placement;
   }
   // after a new assignment: no insect's sample is where last step left it, so the next step takes every
   // one through its id (last step's ids are what tells it where the state is as last step wrote it)

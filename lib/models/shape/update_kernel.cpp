@@ -192,7 +192,8 @@ void updateInsects(const InsectUpdate& u, std::size_t first, std::size_t count, 
 void placeTargets(const TargetPlacement& t, const std::uint32_t* sample, std::size_t first, std::size_t count,
                   float* tx, float* ty, float* tz, LaneSet lanes) {
 #if SWARMSIM_X86_LANES
-  if (lanes == LaneSet::kAvx2 || lanes == LaneSet::kAvx512) {
+  const bool gathers = 3 * t.samples < (std::size_t{1} << 31);  // (the gathers' offsets 3 i in 32 bits)
+  if (gathers && (lanes == LaneSet::kAvx2 || lanes == LaneSet::kAvx512)) {
     placeAvx2(t, sample, first, count, tx, ty, tz);
     return;
   }

@@ -39,6 +39,7 @@ void updateInsects(const InsectUpdate &u, std::size_t first, std::size_t count, 
 struct TargetPlacement {
   const float *keyA = nullptr;  // the samples' positions at the two keys, x, y, z of each (3 floats a sample)
   const float *keyB = nullptr;
+  std::size_t samples = 0;  // how many samples each key has (every index given is below it)
   float f = 0.0f;       // the interpolation weight of key B
   bool placed = false;  // false: no path (the placement is the identity)
   float rot[9] = {};    // the path's rotation, row by row
@@ -48,8 +49,8 @@ struct TargetPlacement {
 
 // For k in [first, first + count): with i = sample[k], p = a + f (b − a) (a, b: sample i at keys A and B), the
 // sample point shift + rot (p − pivot) (p itself unless placed) into (tx[k], ty[k], tz[k]); the products summed
-// as Eigen's Matrix3f times Vector3f sums them, r0 q0 + (r1 q1 + r2 q2). The samples' indices must be below
-// 2^31 / 3 where lanes is kAvx2 or kAvx512 (AVX2 gathers).
+// as Eigen's Matrix3f times Vector3f sums them, r0 q0 + (r1 q1 + r2 q2). On AVX2 (kAvx2, kAvx512) by gathers,
+// where 3 samples fits in 31 bits (up to 715 million samples), else one at a time.
 void placeTargets(const TargetPlacement &t, const std::uint32_t *sample, std::size_t first, std::size_t count,
                   float *tx, float *ty, float *tz, LaneSet lanes);
 
