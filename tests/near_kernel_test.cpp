@@ -215,7 +215,10 @@ TEST_CASE(
         }
         std::size_t counts[3];
         classifyCandidates(m, q, threshold, near2, reach2, ns, set, counts);
-        const std::vector<std::uint32_t>* got[3] = {&ns.conIdx, &ns.nearIdx, &ns.mdeIdx};
+        // (F_int's class: the indices in its keys' low halves)
+        std::vector<std::uint32_t> nsNear;
+        for (std::size_t c = 0; c < counts[1]; ++c) nsNear.push_back(keyIndex(ns.keys[c]));
+        const std::vector<std::uint32_t>* got[3] = {&ns.conIdx, &nsNear, &ns.mdeIdx};
         for (int c = 0; c < 3; ++c) {
           REQUIRE(counts[c] == want[c].size());
           CHECK(std::equal(want[c].begin(), want[c].end(), got[c]->begin()));
@@ -235,7 +238,10 @@ TEST_CASE(
         std::size_t gotCounts[3];
         gatherClassify(m, cand.data(), rows, static_cast<std::uint32_t>(m), q, threshold, near2, reach2, gs, set,
                        gotCounts);
-        const std::vector<std::uint32_t>* fromRows[3] = {&gs.conIdx, &gs.nearIdx, &gs.mdeIdx};
+        // (F_int's class: the indices in its keys' low halves)
+        std::vector<std::uint32_t> gsNear;
+        for (std::size_t c = 0; c < gotCounts[1]; ++c) gsNear.push_back(keyIndex(gs.keys[c]));
+        const std::vector<std::uint32_t>* fromRows[3] = {&gs.conIdx, &gsNear, &gs.mdeIdx};
         for (int c = 0; c < 3; ++c) {
           REQUIRE(gotCounts[c] == want[c].size());
           CHECK(std::equal(want[c].begin(), want[c].end(), fromRows[c]->begin()));

@@ -138,7 +138,6 @@ inline void classifyLanes(std::size_t m, float qx, float qy, float qz, float thr
   const V vx = L::set1(qx), vy = L::set1(qy), vz = L::set1(qz), thr = L::set1(threshold);
   const V vnear = L::set1(near2), vreach = L::set1(reach2), zero = L::set1(0.0f), sign = L::set1(-0.0f);
   std::uint32_t* con = s.conIdx.data();
-  std::uint32_t* nr = s.nearIdx.data();
   std::uint32_t* md = s.mdeIdx.data();
   std::size_t nc = 0, nn = 0, nm = 0;
   for (std::size_t e = 0; e < m; e += kLanes) {
@@ -167,14 +166,22 @@ inline void classifyLanes(std::size_t m, float qx, float qy, float qz, float thr
     }
 #endif
     if (inCon != 0) nc += packSetLanes<kAvx2>(base, inCon, con + nc);
+      // F_int's candidates as keys (neighbourKey: the squared distance's bits, then the index)
 #if SWARMSIM_X86_LANES
-    if constexpr (kAvx2) packNearKeys(inNear, base, s.cd2.data() + e, s.keys.data() + nn);  // (below: by their indices)
+    if constexpr (kAvx2) {
+      packNearKeys(inNear, base, s.cd2.data() + e, s.keys.data() + nn);
+      nn += static_cast<std::size_t>(__builtin_popcount(inNear));
+    }
 #endif
-    nn += packSetLanes<kAvx2>(base, inNear, nr + nn);
+    if constexpr (!kAvx2) {
+      for (unsigned bits = inNear; bits; bits &= bits - 1u) {
+        const std::uint32_t j = base + static_cast<std::uint32_t>(__builtin_ctz(bits));
+        s.keys[nn++] = neighbourKey(s.cd2[j], j);
+      }
+    }
     if (inReach != 0) nm += packSetLanes<kAvx2>(base, inReach, md + nm);  // (as rare as F_con's)
   }
   if constexpr (!kAvx2) {
-    for (std::size_t c = 0; c < nn; ++c) s.keys[c] = neighbourKey(s.cd2[nr[c]], nr[c]);
     for (std::size_t c = 0; c < nc; ++c) {
       const std::uint32_t e = con[c];
       s.dx[c] = s.cx[e];
@@ -335,7 +342,7 @@ void NearScratch::growCandidates(std::size_t n) {
   const std::size_t cap = padded(n + n / 2 + 32);
   reserve(cap);
   for (auto* v : {&cx, &cy, &cz, &cd2}) v->resize(cap);
-  for (auto* v : {&cj, &conIdx, &nearIdx, &mdeIdx, &chosen}) v->resize(cap);
+  for (auto* v : {&cj, &conIdx, &mdeIdx, &chosen}) v->resize(cap);
   if (keys.size() < cap) keys.resize(cap);
   room_ = cap;
 }

@@ -26,7 +26,7 @@ struct alignas(64) NearScratch {
   // and the ids of a list built from the grid
   std::vector<float> cx, cy, cz, cd2;
   std::vector<std::uint32_t> cj, ids;
-  std::vector<std::uint32_t> conIdx, nearIdx, mdeIdx;  // classifyCandidates' output
+  std::vector<std::uint32_t> conIdx, mdeIdx;           // classifyCandidates' output (with keys)
   std::vector<std::uint32_t> chosen;                   // F_int's neighbours (sorted positions), for zonalForceRows
   std::vector<std::uint64_t> sortKeys;                 // sortById's (near_list.hpp)
   std::size_t rebuilds = 0;  // near lists this thread built from the grid (a statistic: one count per thread,
@@ -45,11 +45,11 @@ struct alignas(64) NearScratch {
 
 // One insect's candidates, eight at a time: on entry scratch.cx/cy/cz[0, m) hold their positions, on
 // return their offsets from q and scratch.cd2 their squared distances; the indices e (ascending) of those
-// with Manhattan length < threshold and d2 > 0 (F_con's) go to conIdx, with d2 <= near2 to nearIdx, with
-// d2 <= reach2 to mdeIdx, and counts[0..2] say how many; F_con's entries' offsets and squared distances also
-// packed in that order in scratch.dx/dy/dz/d2[0, counts[0]), and the near entries' keys neighbourKey(d2, e)
-// (spatial/nearest.hpp) in scratch.keys[0, counts[1]). The lanes past m are padded here. `lanes`: which
-// instruction set (laneSet(); every one gives the same result).
+// with Manhattan length < threshold and d2 > 0 (F_con's) go to conIdx, with their offsets and squared
+// distances packed in that order in scratch.dx/dy/dz/d2; those with d2 <= near2 (F_int's) go to scratch.keys
+// as neighbourKey(d2, e) (spatial/nearest.hpp), ascending e; those with d2 <= reach2 to mdeIdx; counts[0..2]
+// say how many of each. The lanes past m are padded here. `lanes`: which instruction set (laneSet(); every
+// one gives the same result).
 void classifyCandidates(std::size_t m, const Vec3& q, float threshold, float near2, float reach2, NearScratch& scratch,
                         LaneSet lanes, std::size_t counts[3]);
 
