@@ -323,3 +323,87 @@ TEST_CASE("near kernels: keepSmallest keeps the K smallest keys in their given o
     REQUIRE(got == want);
   }
 }
+
+TEST_CASE(
+    "near kernels: nearSums gives what gatherClassify, keepSmallest and zonalForceRows give of the same candidates",
+    "[shape][near_kernel]") {
+  if (!nearSumsLanes(LaneSet::kAvx512) || !__builtin_cpu_supports("avx512f")) {
+    WARN("no AVX-512 with BMI2 on this CPU: nearSums not run");
+    return;
+  }
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  const std::size_t n = 200;
+  std::size_t taken = 0, tried = 0;
+  for (int round = 0; round < 3000; ++round) {
+    // points (some on a coarse lattice: equal distances), velocities, at shuffled sorted positions
+    std::vector<Vec3> pts(n), vel(n);
+    const bool lattice = round % 5 == 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      pts[i] = lattice ? Vec3(std::round(4.0f * u(rng)), std::round(4.0f * u(rng)), std::round(4.0f * u(rng))) / 4.0f
+                       : Vec3(u(rng), u(rng), u(rng));
+      vel[i] = round % 7 == 0 && i % 3 == 0 ? Vec3::Zero() : Vec3(u(rng), u(rng), u(rng));
+    }
+    std::vector<std::size_t> at(n);
+    for (std::size_t i = 0; i < n; ++i) at[i] = (i * 37 + static_cast<std::size_t>(round)) % n;
+    AlignedFloats store;
+    const float* rows = rowsOf(store, pts, &vel, &at);
+    const auto far = static_cast<std::uint32_t>(n);
+    // candidates: m sorted positions (the query's own among them at times: d2 = 0)
+    const std::size_t m = 1 + static_cast<std::size_t>(rng() % 40);
+    std::vector<std::uint32_t> cand(m + 16);
+    for (std::size_t e = 0; e < m; ++e) cand[e] = static_cast<std::uint32_t>(at[rng() % n]);
+    const std::size_t self = rng() % n;
+    const Vec3 q = round % 3 == 0 ? pts[self] : Vec3(0.5f * u(rng), 0.5f * u(rng), 0.5f * u(rng));
+    const Vec3 vq(u(rng), u(rng), u(rng));
+    const std::size_t Ks[] = {1, 4, 8, 9, 10, 16, 17};
+    const std::size_t K = Ks[rng() % 7];
+    const float threshold = 0.2f + 1.5f * std::abs(u(rng)), near2 = 0.1f + 2.0f * std::abs(u(rng));
+    const float reach2 = 0.5f * std::abs(u(rng));
+    const ZoneLanes zl = {0.05f, 0.3f, 1.2f, {0.2f, 3.0f, 13.0f}};
+    CAPTURE(round, m, K, threshold, near2, reach2);
+    // step by step
+    NearScratch ref;
+    std::size_t counts[3];
+    gatherClassify(m, cand.data(), rows, far, q, threshold, near2, reach2, ref, LaneSet::kAvx2, counts);
+    std::vector<std::uint64_t> keys(ref.keys.begin(), ref.keys.begin() + static_cast<std::ptrdiff_t>(counts[1]));
+    const std::size_t mk = keepSmallest(keys.data(), counts[1], K);
+    std::vector<std::uint32_t> js(mk + kLanes);
+    std::uint64_t top = 0;
+    for (std::size_t c = 0; c < mk; ++c) {
+      js[c] = ref.cj[keyIndex(keys[c])];
+      top = std::max(top, keys[c]);
+    }
+    const std::vector<std::uint32_t> chosen(js.begin(), js.begin() + static_cast<std::ptrdiff_t>(mk));
+    const Vec3 fRef = zonalForceRows(mk, js.data(), rows, far, q, vq, zl);
+    // at once
+    NearScratch ns;
+    NearSums sums;
+    ++tried;
+    if (!nearSums(m, cand.data(), rows, far, q, vq, threshold, near2, reach2, K, zl, ns, sums)) {
+      // only where it may decline: too many candidates, too few near, K beyond 16, or a tie at the K-th place
+      bool tieAtK = false;
+      if (counts[1] > K) {
+        std::vector<float> d2;
+        for (std::size_t c = 0; c < counts[1]; ++c) d2.push_back(keyDistance2(ref.keys[c]));
+        std::sort(d2.begin(), d2.end());
+        tieAtK = d2[K - 1] == d2[K];
+      }
+      CHECK((m > 32 || K > 16 || counts[1] < K || tieAtK));
+      continue;
+    }
+    ++taken;
+    REQUIRE(mk == K);
+    for (int c = 0; c < 3; ++c) REQUIRE(sums.counts[c] == counts[c]);
+    CHECK(std::equal(chosen.begin(), chosen.end(), ns.chosen.begin()));
+    CHECK(sameBits(sums.fInt, fRef));
+    CHECK(sums.far2 == keyDistance2(top));
+    CHECK(
+        std::equal(ref.mdeIdx.begin(), ref.mdeIdx.begin() + static_cast<std::ptrdiff_t>(counts[2]), ns.mdeIdx.begin()));
+    for (std::size_t c = 0; c < counts[0]; ++c) {
+      CHECK((ns.dx[c] == ref.dx[c] && ns.dy[c] == ref.dy[c] && ns.dz[c] == ref.dz[c] && ns.d2[c] == ref.d2[c]));
+    }
+  }
+  INFO("taken " << taken << " of " << tried);
+  CHECK(taken > tried / 5);  // (most of the others have fewer than K near)
+}

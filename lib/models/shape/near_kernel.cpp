@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "core/lanes.hpp"
@@ -426,6 +427,237 @@ Vec3 zonalResult(const ZoneLanes& z, const float out[12]) {
   return f;
 }
 }  // namespace
+
+#if SWARMSIM_X86_LANES
+namespace {
+#define SWARMSIM_AVX512_BMI2 __attribute__((target("avx512f,avx2,fma,popcnt,bmi,bmi2")))
+
+// a float vector's halves, lanes 0..7 and 8..15
+SWARMSIM_AVX512_BMI2 inline __m256 lowHalf(__m512 x) {
+  return _mm256_castpd_ps(_mm512_maskz_extractf64x4_pd(0xf, _mm512_castps_pd(x), 0));
+}
+SWARMSIM_AVX512_BMI2 inline __m256 highHalf(__m512 x) {
+  return _mm256_castpd_ps(_mm512_maskz_extractf64x4_pd(0xf, _mm512_castps_pd(x), 1));
+}
+
+SWARMSIM_AVX512_BMI2 inline __m512 absOf(__m512 x, __m512i noSign) {
+  return _mm512_castsi512_ps(_mm512_and_si512(_mm512_castps_si512(x), noSign));
+}
+// one chunk of sixteen candidates (e0 on: lane l is candidate e0 + l, the far row past m): its offsets d, squared
+// distances, velocity differences u and sorted positions, and the lanes in each class
+struct Chunk16 {
+  __m512 dx, dy, dz, d2, ux, uy, uz;
+  __m512i pos;
+  __mmask16 con, near, reach;
+};
+SWARMSIM_AVX512_BMI2 inline Chunk16 chunk16(std::size_t e0, std::size_t m, const std::uint32_t* cand, const float* rows,
+                                            std::uint32_t far, __m512 self, float threshold, float near2,
+                                            float reach2) {
+  // 128-bit quarters (0 of a, 0 of b, 2 of a, 2 of b) and (1, 1, 3, 3): from rows 0-3 | 4-7 | 8-11 | 12-15
+  const __m512i pickPos = _mm512_setr_epi32(0, 1, 2, 3, 16, 17, 18, 19, 8, 9, 10, 11, 24, 25, 26, 27);
+  const __m512i pickVel = _mm512_setr_epi32(4, 5, 6, 7, 20, 21, 22, 23, 12, 13, 14, 15, 28, 29, 30, 31);
+  const __m512i noSign = _mm512_set1_epi32(0x7fffffff);
+  Chunk16 c;
+  const auto valid = static_cast<__mmask16>(m - e0 >= 16 ? 0xffffu : (1u << (m - e0)) - 1u);
+  c.pos = _mm512_mask_loadu_epi32(_mm512_set1_epi32(static_cast<int>(far)), valid, cand + e0);
+  // rows l and l + 8 in the halves of r[l] (their indices read from cand, not from the vector just loaded)
+  __m512 r[8];
+  for (std::size_t l = 0; l < 8; ++l) {
+    const std::size_t ea = e0 + l, eb = ea + 8;
+    const std::uint32_t ia = ea < m ? cand[std::min(ea, m - 1)] : far;
+    const std::uint32_t ib = eb < m ? cand[std::min(eb, m - 1)] : far;
+    const __m256 a = _mm256_load_ps(rows + kRowFloats * std::size_t{ia});
+    const __m256 b = _mm256_load_ps(rows + kRowFloats * std::size_t{ib});
+    const __m512d ab =
+        _mm512_maskz_insertf64x4(0xff, _mm512_castpd256_pd512(_mm256_castps_pd(a)), _mm256_castps_pd(b), 1);
+    r[l] = _mm512_sub_ps(_mm512_castpd_ps(ab), self);
+  }
+  const __m512 t0 = _mm512_maskz_unpacklo_ps(0xffff, r[0], r[1]), t1 = _mm512_maskz_unpackhi_ps(0xffff, r[0], r[1]);
+  const __m512 t2 = _mm512_maskz_unpacklo_ps(0xffff, r[2], r[3]), t3 = _mm512_maskz_unpackhi_ps(0xffff, r[2], r[3]);
+  const __m512 t4 = _mm512_maskz_unpacklo_ps(0xffff, r[4], r[5]), t5 = _mm512_maskz_unpackhi_ps(0xffff, r[4], r[5]);
+  const __m512 t6 = _mm512_maskz_unpacklo_ps(0xffff, r[6], r[7]), t7 = _mm512_maskz_unpackhi_ps(0xffff, r[6], r[7]);
+  const __m512 a0 = _mm512_shuffle_ps(t0, t2, _MM_SHUFFLE(1, 0, 1, 0)),
+               b0 = _mm512_shuffle_ps(t4, t6, _MM_SHUFFLE(1, 0, 1, 0));
+  const __m512 a1 = _mm512_shuffle_ps(t0, t2, _MM_SHUFFLE(3, 2, 3, 2)),
+               b1 = _mm512_shuffle_ps(t4, t6, _MM_SHUFFLE(3, 2, 3, 2));
+  const __m512 a2 = _mm512_shuffle_ps(t1, t3, _MM_SHUFFLE(1, 0, 1, 0)),
+               b2 = _mm512_shuffle_ps(t5, t7, _MM_SHUFFLE(1, 0, 1, 0));
+  c.dx = _mm512_permutex2var_ps(a0, pickPos, b0);
+  c.ux = _mm512_permutex2var_ps(a0, pickVel, b0);
+  c.dy = _mm512_permutex2var_ps(a1, pickPos, b1);
+  c.uy = _mm512_permutex2var_ps(a1, pickVel, b1);
+  c.dz = _mm512_permutex2var_ps(a2, pickPos, b2);
+  c.uz = _mm512_permutex2var_ps(a2, pickVel, b2);
+  c.d2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(c.dx, c.dx), _mm512_mul_ps(c.dy, c.dy)), _mm512_mul_ps(c.dz, c.dz));
+  const __m512 man = _mm512_add_ps(_mm512_add_ps(absOf(c.dx, noSign), absOf(c.dy, noSign)), absOf(c.dz, noSign));
+  c.con = _mm512_mask_cmp_ps_mask(_mm512_mask_cmp_ps_mask(valid, man, _mm512_set1_ps(threshold), _CMP_LT_OQ), c.d2,
+                                  _mm512_setzero_ps(), _CMP_GT_OQ);
+  c.near = _mm512_mask_cmp_ps_mask(valid, c.d2, _mm512_set1_ps(near2), _CMP_LE_OQ);
+  c.reach = _mm512_mask_cmp_ps_mask(valid, c.d2, _mm512_set1_ps(reach2), _CMP_LE_OQ);
+  return c;
+}
+
+// the candidates (0..31) in a 32-bit mask, packed in order: the first sixteen in lanes 0..15 of the result, the
+// next sixteen in `rest`
+SWARMSIM_AVX512_BMI2 inline __m512i packedLanes(std::uint32_t mask, __m512i& rest) {
+  const __m512i iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  const auto lo = static_cast<__mmask16>(mask), hi = static_cast<__mmask16>(mask >> 16);
+  const int n = __builtin_popcount(lo);
+  const __m512i first = _mm512_maskz_compress_epi32(lo, iota);
+  const __m512i second = _mm512_maskz_compress_epi32(hi, _mm512_add_epi32(iota, _mm512_set1_epi32(16)));
+  // the second's lanes after the first's n: those up to 15 in the first, the others from lane 0 of rest
+  const __m512i shift = _mm512_sub_epi32(iota, _mm512_set1_epi32(n));
+  const __m512i packed = _mm512_mask_permutexvar_epi32(first, static_cast<__mmask16>(0xffffu << n), shift, second);
+  rest = _mm512_maskz_permutexvar_epi32(0xffff, _mm512_add_epi32(iota, _mm512_set1_epi32(16 - n)), second);
+  return packed;
+}
+
+// nearSums on sixteen lanes, for at most 32 candidates in two chunks: each chunk's sixteen rows transposed as
+// zonalRowsAvx2 transposes eight, every value computed by the operations classifyLanes and zonalBlock use, on the
+// same operands; the entries of a class gathered from the two chunks by their packed lane numbers
+SWARMSIM_AVX512_BMI2 bool nearSumsAvx512(std::size_t m, const std::uint32_t* cand, const float* rows, std::uint32_t far,
+                                         float qx, float qy, float qz, float vx, float vy, float vz, float threshold,
+                                         float near2, float reach2, std::size_t K, const ZoneLanes& z, NearScratch& s,
+                                         NearSums& out) {
+  if (m > 32 || m == 0 || K == 0 || K > 16) return false;
+  const __m512 self = _mm512_setr_ps(qx, qy, qz, 0.0f, vx, vy, vz, 0.0f, qx, qy, qz, 0.0f, vx, vy, vz, 0.0f);
+  const Chunk16 c0 = chunk16(0, m, cand, rows, far, self, threshold, near2, reach2);
+  Chunk16 c1;
+  if (m > 16) {
+    c1 = chunk16(16, m, cand, rows, far, self, threshold, near2, reach2);
+  } else {
+    c1.dx = c1.dy = c1.dz = c1.d2 = c1.ux = c1.uy = c1.uz = _mm512_setzero_ps();
+    c1.pos = _mm512_setzero_si512();
+    c1.con = c1.near = c1.reach = 0;
+  }
+  const std::uint32_t con = c0.con | std::uint32_t{c1.con} << 16, near = c0.near | std::uint32_t{c1.near} << 16;
+  const std::uint32_t reach = c0.reach | std::uint32_t{c1.reach} << 16;
+  const auto mk = static_cast<std::size_t>(__builtin_popcount(near));
+  if (mk < K) return false;
+  // F_int's K: the near entries' squared distances packed, each one's rank the number of them below it
+  std::uint32_t chosen = near;
+  if (mk > K) {
+    __m512i nearRest;
+    const __m512i nearIdx = packedLanes(near, nearRest);
+    const __m512 inf = _mm512_set1_ps(std::numeric_limits<float>::infinity());
+    const auto inLo = static_cast<__mmask16>(mk >= 16 ? 0xffffu : (1u << mk) - 1u);
+    const __m512 lo = _mm512_mask_permutex2var_ps(c0.d2, inLo, nearIdx, c1.d2);
+    const __m512 ndLo = _mm512_mask_mov_ps(inf, inLo, lo);
+    const __m512i one = _mm512_set1_epi32(1);
+    __m512i rankLo = _mm512_setzero_si512();
+    std::uint32_t pick;
+    if (mk <= 16) {
+      for (std::size_t j = 0; j < mk; ++j) {
+        const __m512 b = _mm512_maskz_permutexvar_ps(0xffff, _mm512_set1_epi32(static_cast<int>(j)), ndLo);
+        rankLo = _mm512_mask_add_epi32(rankLo, _mm512_cmp_ps_mask(ndLo, b, _CMP_GT_OQ), rankLo, one);
+      }
+      pick = _mm512_mask_cmplt_epi32_mask(inLo, rankLo, _mm512_set1_epi32(static_cast<int>(K)));
+    } else {
+      const auto inHi = static_cast<__mmask16>((1u << (mk - 16)) - 1u);
+      const __m512 ndHi = _mm512_mask_mov_ps(inf, inHi, _mm512_permutex2var_ps(c0.d2, nearRest, c1.d2));
+      __m512i rankHi = _mm512_setzero_si512();
+      for (std::size_t j = 0; j < mk; ++j) {
+        const __m512i at = _mm512_set1_epi32(static_cast<int>(j & 15));
+        const __m512 b = _mm512_maskz_permutexvar_ps(0xffff, at, j < 16 ? ndLo : ndHi);
+        rankLo = _mm512_mask_add_epi32(rankLo, _mm512_cmp_ps_mask(ndLo, b, _CMP_GT_OQ), rankLo, one);
+        rankHi = _mm512_mask_add_epi32(rankHi, _mm512_cmp_ps_mask(ndHi, b, _CMP_GT_OQ), rankHi, one);
+      }
+      const __m512i vk = _mm512_set1_epi32(static_cast<int>(K));
+      pick = _mm512_mask_cmplt_epi32_mask(inLo, rankLo, vk) |
+             std::uint32_t{_mm512_mask_cmplt_epi32_mask(inHi, rankHi, vk)} << 16;
+    }
+    if (static_cast<std::size_t>(__builtin_popcount(pick)) != K) return false;  // a tie at the K-th place
+    chosen = static_cast<std::uint32_t>(_pdep_u32(pick, near));
+  }
+  // the K in order, lane q for the q-th (gathered from both chunks by their lane numbers)
+  __m512i unusedRest;
+  const __m512i pick = packedLanes(chosen, unusedRest);
+  const __m512 dx = _mm512_permutex2var_ps(c0.dx, pick, c1.dx), dy = _mm512_permutex2var_ps(c0.dy, pick, c1.dy);
+  const __m512 dz = _mm512_permutex2var_ps(c0.dz, pick, c1.dz), d2 = _mm512_permutex2var_ps(c0.d2, pick, c1.d2);
+  const __m512 ux = _mm512_permutex2var_ps(c0.ux, pick, c1.ux), uy = _mm512_permutex2var_ps(c0.uy, pick, c1.uy);
+  const __m512 uz = _mm512_permutex2var_ps(c0.uz, pick, c1.uz);
+  s.reserveCandidates(m + 32);
+  _mm512_storeu_si512(s.chosen.data(), _mm512_permutex2var_epi32(c0.pos, pick, c1.pos));
+  // F_con's entries and MDE's indices, packed in order (few insects have any)
+  if (con != 0) {
+    s.reserve(m + 32);
+    __m512i rest;
+    const __m512i at = packedLanes(con, rest);
+    const __m512i ats[2] = {at, rest};
+    for (int h = 0; h < (__builtin_popcount(con) > 16 ? 2 : 1); ++h) {
+      _mm512_storeu_ps(s.dx.data() + 16 * h, _mm512_permutex2var_ps(c0.dx, ats[h], c1.dx));
+      _mm512_storeu_ps(s.dy.data() + 16 * h, _mm512_permutex2var_ps(c0.dy, ats[h], c1.dy));
+      _mm512_storeu_ps(s.dz.data() + 16 * h, _mm512_permutex2var_ps(c0.dz, ats[h], c1.dz));
+      _mm512_storeu_ps(s.d2.data() + 16 * h, _mm512_permutex2var_ps(c0.d2, ats[h], c1.d2));
+    }
+  }
+  if (reach != 0) {
+    __m512i rest;
+    _mm512_storeu_si512(s.mdeIdx.data(), packedLanes(reach, rest));
+    _mm512_storeu_si512(s.mdeIdx.data() + 16, rest);
+  }
+  out.counts[0] = static_cast<std::size_t>(__builtin_popcount(con));
+  out.counts[1] = mk;
+  out.counts[2] = static_cast<std::size_t>(__builtin_popcount(reach));
+  // zonalBlock's sums over the K (lanes from K on in no zone), lanes 8..15 added after lanes 0..7 as the
+  // eight-lane kernel adds its second block
+  const auto inK = static_cast<__mmask16>(K >= 16 ? 0xffffu : (1u << K) - 1u);
+  const __m512 one = _mm512_set1_ps(1.0f), tiny = _mm512_set1_ps(kTiny);
+  const __m512 u2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(ux, ux), _mm512_mul_ps(uy, uy)), _mm512_mul_ps(uz, uz));
+  const __mmask16 inRep = _mm512_mask_cmp_ps_mask(inK, d2, _mm512_set1_ps(z.rep2), _CMP_LT_OQ);
+  const __mmask16 nearer = _mm512_mask_cmp_ps_mask(inK, d2, _mm512_set1_ps(z.ali2), _CMP_LT_OQ);
+  const __mmask16 inAli = static_cast<__mmask16>(nearer & ~inRep);
+  const __mmask16 inAtt =
+      static_cast<__mmask16>(_mm512_mask_cmp_ps_mask(inK, d2, _mm512_set1_ps(z.att2), _CMP_LE_OQ) & ~nearer);
+  const __m512 invd = _mm512_div_ps(one, _mm512_maskz_sqrt_ps(0xffff, _mm512_maskz_max_ps(0xffff, d2, tiny)));
+  const __m512 invu = _mm512_div_ps(one, _mm512_maskz_sqrt_ps(0xffff, _mm512_maskz_max_ps(0xffff, u2, tiny)));
+  const __m512 sums[9] = {
+      _mm512_maskz_mul_ps(inRep, dx, invd), _mm512_maskz_mul_ps(inRep, dy, invd), _mm512_maskz_mul_ps(inRep, dz, invd),
+      _mm512_maskz_mul_ps(inAli, ux, invu), _mm512_maskz_mul_ps(inAli, uy, invu), _mm512_maskz_mul_ps(inAli, uz, invu),
+      _mm512_maskz_mul_ps(inAtt, dx, invd), _mm512_maskz_mul_ps(inAtt, dy, invd), _mm512_maskz_mul_ps(inAtt, dz, invd)};
+  AvxLanes::V acc[9];
+  for (int a = 0; a < 9; ++a) {
+    acc[a].a = _mm256_add_ps(_mm256_add_ps(_mm256_setzero_ps(), lowHalf(sums[a])), highHalf(sums[a]));
+  }
+  float sum[12];
+  AvxLanes::treeSums8(acc, sum);
+  sum[8] = treeSum<AvxLanes>(acc[8]);
+  sum[9] = static_cast<float>(__builtin_popcount(inRep));
+  sum[10] = static_cast<float>(__builtin_popcount(inAli));
+  sum[11] = static_cast<float>(__builtin_popcount(inAtt));
+  out.fInt = zonalResult(z, sum);
+  const __m512 kept2 = _mm512_maskz_mov_ps(inK, d2);  // (squared distances: none below zero)
+  const __m256 m8 = _mm256_max_ps(lowHalf(kept2), highHalf(kept2));
+  const __m128 m4 = _mm_max_ps(_mm256_castps256_ps128(m8), _mm256_extractf128_ps(m8, 1));
+  const __m128 m2 = _mm_max_ps(m4, _mm_movehl_ps(m4, m4));
+  out.far2 = _mm_cvtss_f32(_mm_max_ss(m2, _mm_shuffle_ps(m2, m2, 1)));
+  return true;
+}
+}  // namespace
+#endif
+
+bool nearSumsLanes(LaneSet lanes) {
+#if SWARMSIM_X86_LANES
+  static const bool bmi2 = __builtin_cpu_supports("bmi2");
+  return lanes == LaneSet::kAvx512 && bmi2;
+#else
+  (void)lanes;
+  return false;
+#endif
+}
+
+bool nearSums(std::size_t m, const std::uint32_t* cand, const float* rows, std::uint32_t far, const Vec3& q,
+              const Vec3& v, float threshold, float near2, float reach2, std::size_t K, const ZoneLanes& zones,
+              NearScratch& scratch, NearSums& out) {
+#if SWARMSIM_X86_LANES
+  return nearSumsAvx512(m, cand, rows, far, q.x(), q.y(), q.z(), v.x(), v.y(), v.z(), threshold, near2, reach2, K,
+                        zones, scratch, out);
+#else
+  (void)m, (void)cand, (void)rows, (void)far, (void)q, (void)v, (void)threshold, (void)near2, (void)reach2, (void)K;
+  (void)zones, (void)scratch, (void)out;
+  throw std::logic_error("nearSums without AVX-512");
+#endif
+}
 
 bool zonalFromRows(LaneSet lanes) {
 #if SWARMSIM_X86_LANES

@@ -113,6 +113,25 @@ bool zonalFromRows(LaneSet lanes);
 Vec3 zonalForceRows(std::size_t m, std::uint32_t* js, const float* rows, std::uint32_t far, const Vec3& q,
                     const Vec3& v, const ZoneLanes& zones);
 
+// What nearSums gives of one insect's candidates
+struct NearSums {
+  Vec3 fInt = Vec3::Zero();           // F_int (zonalForceRows) over the K chosen
+  float far2 = 0.0f;                  // the largest squared distance among them
+  std::size_t counts[3] = {0, 0, 0};  // as gatherClassify's: F_con's entries, F_int's (within near2), MDE's
+};
+// whether nearSums runs on this lane set (AVX-512, with BMI2)
+bool nearSumsLanes(LaneSet lanes);
+// gatherClassify of the m candidates cand[0, m), then keepSmallest of F_int's K and zonalForceRows of them, in one
+// pass on sixteen AVX-512 lanes, with the same results: F_con's entries packed in scratch.dx/dy/dz/d2, MDE's
+// indices in scratch.mdeIdx, the counts, and F_int's K nearest within near2 (ties to the lower index) as sorted
+// positions in their given order in scratch.chosen, with their F_int (v: the insect's velocity) and farthest
+// squared distance. Returns false where it does not apply, having left nothing the caller may use: none or more
+// than 32 candidates, K = 0 or more than 16, fewer than K within near2, or a tie of distances at the K-th place
+// (the general path takes those). Only where nearSumsLanes(lanes).
+bool nearSums(std::size_t m, const std::uint32_t* cand, const float* rows, std::uint32_t far, const Vec3& q,
+              const Vec3& v, float threshold, float near2, float reach2, std::size_t K, const ZoneLanes& zones,
+              NearScratch& scratch, NearSums& out);
+
 // the largest squared distance from q of the rows at sorted positions pos[prev[0, m)], of `count` rows (rows
 // as gatherClassify reads them; the squared distance as it computes it, so the same bits on every lane set:
 // AVX2 gathers eight at a time, below 2^28 rows)

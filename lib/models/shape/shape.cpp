@@ -389,6 +389,7 @@ class ShapeModel final : public Model {
     const ZoneLanes zoneLanes = {zones.rRep2, zones.rAli2, zones.rAtt2, {zones.w[0], zones.w[1], zones.w[2]}};
     const bool avx = lanes != LaneSet::kSse;  // for the kernels without an AVX2 variant
     const bool rowsZonal = zonalFromRows(lanes);
+    const bool fused = nearSumsLanes(lanes);
     // F_con (into fCon) and F_int (returned) of sorted insect k from its near-list candidates. Every sum runs
     // over the entries that count, packed in id order, so it depends on the positions only.
     const float mdReach2 = mdReach * mdReach * (1.0f + 1e-5f);  // float slack: a larger radius is harmless
@@ -445,7 +446,14 @@ class ShapeModel final : public Model {
       }
       std::size_t counts[3];
       std::size_t mk = 0;
-      for (;;) {
+      // all at once on AVX-512 where it can (nearSums: the same results), else step by step
+      NearSums sums;
+      const float first = std::min({cover, rAtt, guess});
+      const bool together =
+          fused && nearSums(m, cand, rows, static_cast<std::uint32_t>(n), Vec3(qx, qy, qz),
+                            Vec3(vx_[k], vy_[k], vz_[k]), kh, first * first, mdReach2, K, zoneLanes, ns, sums);
+      if (together) std::copy(sums.counts, sums.counts + 3, counts);
+      for (; !together;) {
         // their sorted positions and positions (the one random access of each), offsets, squared distances,
         // and who counts for F_con, F_int (within the first radius) and MDE
         const float reach = std::min({cover, rAtt, guess});
@@ -477,6 +485,11 @@ class ShapeModel final : public Model {
       const std::size_t mm = counts[2];
       mdeCount_[k] = mm <= kMdeRoom ? static_cast<std::uint8_t>(mm) : kMdeNone;
       for (std::size_t c = 0; c < std::min(mm, kMdeRoom); ++c) mdeNear_[k * kMdeRoom + c] = cand[ns.mdeIdx[c]];
+      if (together) {  // (K of them)
+        if (keepNear) std::copy(ns.chosen.data(), ns.chosen.data() + K, nearNext_.data() + k * K);
+        reach_[k] = std::sqrt(sums.far2);
+        return sums.fInt;
+      }
       // F_int over the K nearest within r_att, in id order
       mk = keepSmallest(keys, mk, K);
       // their sorted positions, and the farthest (the largest key)
