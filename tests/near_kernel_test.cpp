@@ -334,7 +334,7 @@ TEST_CASE(
   std::mt19937 rng(21);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   const std::size_t n = 200;
-  std::size_t taken = 0, tried = 0;
+  std::size_t taken = 0, tried = 0, conCases = 0;
   for (int round = 0; round < 3000; ++round) {
     // points (some on a coarse lattice: equal distances), velocities, at shuffled sorted positions
     std::vector<Vec3> pts(n), vel(n);
@@ -380,7 +380,8 @@ TEST_CASE(
     NearScratch ns;
     NearSums sums;
     ++tried;
-    if (!nearSums(m, cand.data(), rows, far, q, vq, threshold, near2, reach2, K, zl, ns, sums)) {
+    const float inv2s2 = 1.0f / (2.0f * 0.3f * 0.3f);
+    if (!nearSums(m, cand.data(), rows, far, q, vq, threshold, inv2s2, near2, reach2, K, zl, ns, sums)) {
       // only where it may decline: too many candidates, too few near, K beyond 16, or a tie at the K-th place
       bool tieAtK = false;
       if (counts[1] > K) {
@@ -400,10 +401,23 @@ TEST_CASE(
     CHECK(sums.far2 == keyDistance2(top));
     CHECK(
         std::equal(ref.mdeIdx.begin(), ref.mdeIdx.begin() + static_cast<std::ptrdiff_t>(counts[2]), ns.mdeIdx.begin()));
-    for (std::size_t c = 0; c < counts[0]; ++c) {
-      CHECK((ns.dx[c] == ref.dx[c] && ns.dy[c] == ref.dy[c] && ns.dz[c] == ref.dz[c] && ns.d2[c] == ref.d2[c]));
+    // F_con: its sum, or its entries packed (beyond sixteen)
+    Vec3 conRef;
+    int countRef = 0;
+    NearScratch refCopy = ref;
+    constraintSumScratch(counts[0], threshold, inv2s2, refCopy, true, conRef, countRef);
+    if (sums.conSummed) {
+      CHECK(sameBits(sums.conSum, conRef));
+      CHECK(sums.conCount == countRef);
+    } else {
+      CHECK(counts[0] > 16);
+      for (std::size_t c = 0; c < counts[0]; ++c) {
+        CHECK((ns.dx[c] == ref.dx[c] && ns.dy[c] == ref.dy[c] && ns.dz[c] == ref.dz[c] && ns.d2[c] == ref.d2[c]));
+      }
     }
+    conCases += counts[0] > 0 && sums.conSummed ? 1 : 0;
   }
-  INFO("taken " << taken << " of " << tried);
+  INFO("taken " << taken << " of " << tried << ", " << conCases << " of them with F_con entries");
   CHECK(taken > tried / 5);  // (most of the others have fewer than K near)
+  CHECK(conCases > taken / 4);
 }

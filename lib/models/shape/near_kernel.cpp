@@ -517,8 +517,8 @@ SWARMSIM_AVX512_BMI2 inline __m512i packedLanes(std::uint32_t mask, __m512i& res
 // same operands; the entries of a class gathered from the two chunks by their packed lane numbers
 SWARMSIM_AVX512_BMI2 bool nearSumsAvx512(std::size_t m, const std::uint32_t* cand, const float* rows, std::uint32_t far,
                                          float qx, float qy, float qz, float vx, float vy, float vz, float threshold,
-                                         float near2, float reach2, std::size_t K, const ZoneLanes& z, NearScratch& s,
-                                         NearSums& out) {
+                                         float inv2s2, float near2, float reach2, std::size_t K, const ZoneLanes& z,
+                                         NearScratch& s, NearSums& out) {
   if (m > 32 || m == 0 || K == 0 || K > 16) return false;
   const __m512 self = _mm512_setr_ps(qx, qy, qz, 0.0f, vx, vy, vz, 0.0f, qx, qy, qz, 0.0f, vx, vy, vz, 0.0f);
   const Chunk16 c0 = chunk16(0, m, cand, rows, far, self, threshold, near2, reach2);
@@ -578,8 +578,51 @@ SWARMSIM_AVX512_BMI2 bool nearSumsAvx512(std::size_t m, const std::uint32_t* can
   const __m512 uz = _mm512_permutex2var_ps(c0.uz, pick, c1.uz);
   s.reserveCandidates(m + 32);
   _mm512_storeu_si512(s.chosen.data(), _mm512_permutex2var_epi32(c0.pos, pick, c1.pos));
-  // F_con's entries and MDE's indices, packed in order (few insects have any)
-  if (con != 0) {
+  // F_con: up to sixteen entries summed here as constraintSumScratch sums them (lanes 8..15 after lanes 0..7, then
+  // the eight lanes in order), more packed in scratch.dx/dy/dz/d2 for the caller's constraintSumScratch
+  const int nc = __builtin_popcount(con);
+  out.conSum = Vec3::Zero();
+  out.conCount = 0;
+  out.conSummed = nc <= 16;
+  if (con != 0 && nc <= 16) {
+    __m512i unused;
+    const __m512i at = packedLanes(con, unused);
+    const auto in = static_cast<__mmask16>((1u << nc) - 1u);
+    const __m512 cx = _mm512_permutex2var_ps(c0.dx, at, c1.dx), cy = _mm512_permutex2var_ps(c0.dy, at, c1.dy);
+    const __m512 cz = _mm512_permutex2var_ps(c0.dz, at, c1.dz), cd2 = _mm512_permutex2var_ps(c0.d2, at, c1.d2);
+    if (nc <= 8) {  // (the usual case: eight lanes, as constraintSumScratch's one block)
+      using L = AvxLanes;
+      const L::V x{lowHalf(cx)}, y{lowHalf(cy)}, zz{lowHalf(cz)}, dd{lowHalf(cd2)};
+      const L::V sign = L::set1(-0.0f);
+      const L::V man = L::add(L::add(L::andnot(sign, x), L::andnot(sign, y)), L::andnot(sign, zz));
+      const L::V w =
+          L::div(expLanes<L>(L::mul(L::mul(man, man), L::set1(-inv2s2))), L::sqrt(L::max(dd, L::set1(kTiny))));
+      const __m256 keep =
+          _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(nc), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)));
+      const __m256 parts[3] = {_mm256_and_ps(keep, _mm256_mul_ps(x.a, w.a)),
+                               _mm256_and_ps(keep, _mm256_mul_ps(y.a, w.a)),
+                               _mm256_and_ps(keep, _mm256_mul_ps(zz.a, w.a))};
+      for (int a = 0; a < 3; ++a) {
+        alignas(32) float l[kLanes];
+        _mm256_store_ps(l, _mm256_add_ps(_mm256_setzero_ps(), parts[a]));
+        out.conSum[a] = laneSum(l);
+      }
+    } else {
+      const __m512i noSign = _mm512_set1_epi32(0x7fffffff);
+      const __m512 man = _mm512_add_ps(_mm512_add_ps(absOf(cx, noSign), absOf(cy, noSign)), absOf(cz, noSign));
+      const Avx512Lanes::V e = expLanes<Avx512Lanes>({_mm512_mul_ps(_mm512_mul_ps(man, man), _mm512_set1_ps(-inv2s2))});
+      const __m512 w =
+          _mm512_div_ps(e.a, _mm512_maskz_sqrt_ps(0xffff, _mm512_maskz_max_ps(0xffff, cd2, _mm512_set1_ps(kTiny))));
+      const __m512 parts[3] = {_mm512_maskz_mul_ps(in, cx, w), _mm512_maskz_mul_ps(in, cy, w),
+                               _mm512_maskz_mul_ps(in, cz, w)};
+      for (int a = 0; a < 3; ++a) {
+        alignas(32) float l[kLanes];
+        _mm256_store_ps(l, _mm256_add_ps(_mm256_add_ps(_mm256_setzero_ps(), lowHalf(parts[a])), highHalf(parts[a])));
+        out.conSum[a] = laneSum(l);
+      }
+    }
+    out.conCount = nc;
+  } else if (con != 0) {
     s.reserve(m + 32);
     __m512i rest;
     const __m512i at = packedLanes(con, rest);
@@ -647,14 +690,14 @@ bool nearSumsLanes(LaneSet lanes) {
 }
 
 bool nearSums(std::size_t m, const std::uint32_t* cand, const float* rows, std::uint32_t far, const Vec3& q,
-              const Vec3& v, float threshold, float near2, float reach2, std::size_t K, const ZoneLanes& zones,
-              NearScratch& scratch, NearSums& out) {
+              const Vec3& v, float threshold, float inv2s2, float near2, float reach2, std::size_t K,
+              const ZoneLanes& zones, NearScratch& scratch, NearSums& out) {
 #if SWARMSIM_X86_LANES
-  return nearSumsAvx512(m, cand, rows, far, q.x(), q.y(), q.z(), v.x(), v.y(), v.z(), threshold, near2, reach2, K,
-                        zones, scratch, out);
+  return nearSumsAvx512(m, cand, rows, far, q.x(), q.y(), q.z(), v.x(), v.y(), v.z(), threshold, inv2s2, near2, reach2,
+                        K, zones, scratch, out);
 #else
-  (void)m, (void)cand, (void)rows, (void)far, (void)q, (void)v, (void)threshold, (void)near2, (void)reach2, (void)K;
-  (void)zones, (void)scratch, (void)out;
+  (void)m, (void)cand, (void)rows, (void)far, (void)q, (void)v, (void)threshold, (void)inv2s2, (void)near2;
+  (void)reach2, (void)K, (void)zones, (void)scratch, (void)out;
   throw std::logic_error("nearSums without AVX-512");
 #endif
 }

@@ -118,19 +118,24 @@ struct NearSums {
   Vec3 fInt = Vec3::Zero();           // F_int (zonalForceRows) over the K chosen
   float far2 = 0.0f;                  // the largest squared distance among them
   std::size_t counts[3] = {0, 0, 0};  // as gatherClassify's: F_con's entries, F_int's (within near2), MDE's
+  // F_con's sum and count as constraintSumScratch gives them, where conSummed (else its entries are packed)
+  bool conSummed = false;
+  Vec3 conSum = Vec3::Zero();
+  int conCount = 0;
 };
 // whether nearSums runs on this lane set (AVX-512, with BMI2)
 bool nearSumsLanes(LaneSet lanes);
 // gatherClassify of the m candidates cand[0, m), then keepSmallest of F_int's K and zonalForceRows of them, in one
-// pass on sixteen AVX-512 lanes, with the same results: F_con's entries packed in scratch.dx/dy/dz/d2, MDE's
+// pass on sixteen AVX-512 lanes, with the same results: F_con's sum (constraintSumScratch with inv2s2) where
+// it has at most sixteen entries, else its entries packed in scratch.dx/dy/dz/d2 (out.conSummed says which), MDE's
 // indices in scratch.mdeIdx, the counts, and F_int's K nearest within near2 (ties to the lower index) as sorted
 // positions in their given order in scratch.chosen, with their F_int (v: the insect's velocity) and farthest
 // squared distance. Returns false where it does not apply, having left nothing the caller may use: none or more
 // than 32 candidates, K = 0 or more than 16, fewer than K within near2, or a tie of distances at the K-th place
 // (the general path takes those). Only where nearSumsLanes(lanes).
 bool nearSums(std::size_t m, const std::uint32_t* cand, const float* rows, std::uint32_t far, const Vec3& q,
-              const Vec3& v, float threshold, float near2, float reach2, std::size_t K, const ZoneLanes& zones,
-              NearScratch& scratch, NearSums& out);
+              const Vec3& v, float threshold, float inv2s2, float near2, float reach2, std::size_t K,
+              const ZoneLanes& zones, NearScratch& scratch, NearSums& out);
 
 // the largest squared distance from q of the rows at sorted positions pos[prev[0, m)], of `count` rows (rows
 // as gatherClassify reads them; the squared distance as it computes it, so the same bits on every lane set:

@@ -451,7 +451,7 @@ class ShapeModel final : public Model {
       const float first = std::min({cover, rAtt, guess});
       const bool together =
           fused && nearSums(m, cand, rows, static_cast<std::uint32_t>(n), Vec3(qx, qy, qz),
-                            Vec3(vx_[k], vy_[k], vz_[k]), kh, first * first, mdReach2, K, zoneLanes, ns, sums);
+                            Vec3(vx_[k], vy_[k], vz_[k]), kh, inv2s2, first * first, mdReach2, K, zoneLanes, ns, sums);
       if (together) std::copy(sums.counts, sums.counts + 3, counts);
       for (; !together;) {
         // their sorted positions and positions (the one random access of each), offsets, squared distances,
@@ -477,7 +477,12 @@ class ShapeModel final : public Model {
       if (shaped) {  // F_con over its entries, packed in id order (by gatherClassify)
         Vec3 sum;
         int count = 0;
-        constraintSumScratch(counts[0], kh, inv2s2, ns, avx, sum, count);
+        if (together && sums.conSummed) {
+          sum = sums.conSum;
+          count = sums.conCount;
+        } else {
+          constraintSumScratch(counts[0], kh, inv2s2, ns, avx, sum, count);
+        }
         fCon = count > 0 ? Vec3(sum * (-wCon / static_cast<float>(count))) : Vec3::Zero();
       }
       std::uint64_t* keys = ns.keys.data();  // F_int's candidates (gatherClassify's, or those of the loop above)
