@@ -334,7 +334,7 @@ TEST_CASE(
   std::mt19937 rng(21);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   const std::size_t n = 200;
-  std::size_t taken = 0, tried = 0, conCases = 0;
+  std::size_t taken = 0, tried = 0, conCases = 0, conPacked = 0, threeChunks = 0;
   for (int round = 0; round < 3000; ++round) {
     // points (some on a coarse lattice: equal distances), velocities, at shuffled sorted positions
     std::vector<Vec3> pts(n), vel(n);
@@ -350,7 +350,7 @@ TEST_CASE(
     const float* rows = rowsOf(store, pts, &vel, &at);
     const auto far = static_cast<std::uint32_t>(n);
     // candidates: m sorted positions (the query's own among them at times: d2 = 0)
-    const std::size_t m = 1 + static_cast<std::size_t>(rng() % 40);
+    const std::size_t m = 1 + static_cast<std::size_t>(rng() % 56);
     std::vector<std::uint32_t> cand(m + 16);
     for (std::size_t e = 0; e < m; ++e) cand[e] = static_cast<std::uint32_t>(at[rng() % n]);
     const std::size_t self = rng() % n;
@@ -390,7 +390,7 @@ TEST_CASE(
         std::sort(d2.begin(), d2.end());
         tieAtK = d2[K - 1] == d2[K];
       }
-      CHECK((m > 32 || K > 16 || counts[1] < K || tieAtK));
+      CHECK((m > 48 || K > 16 || counts[1] < K || counts[1] > 32 || counts[0] > 32 || counts[2] > 32 || tieAtK));
       continue;
     }
     ++taken;
@@ -416,8 +416,13 @@ TEST_CASE(
       }
     }
     conCases += counts[0] > 0 && sums.conSummed ? 1 : 0;
+    conPacked += sums.conSummed ? 0 : 1;
+    threeChunks += m > 32 ? 1 : 0;
   }
-  INFO("taken " << taken << " of " << tried << ", " << conCases << " of them with F_con entries");
+  INFO("taken " << taken << " of " << tried << ", " << conCases << " of them with F_con entries, " << conPacked
+                << " with them packed, " << threeChunks << " with three chunks");
   CHECK(taken > tried / 5);  // (most of the others have fewer than K near)
   CHECK(conCases > taken / 4);
+  CHECK(conPacked > 10);
+  CHECK(threeChunks > 10);
 }

@@ -497,52 +497,74 @@ SWARMSIM_AVX512_BMI2 inline Chunk16 chunk16(std::size_t e0, std::size_t m, const
   return c;
 }
 
-// the candidates (0..31) in a 32-bit mask, packed in order: the first sixteen in lanes 0..15 of the result, the
-// next sixteen in `rest`
-SWARMSIM_AVX512_BMI2 inline __m512i packedLanes(std::uint32_t mask, __m512i& rest) {
+// the candidates (0..47, of `chunks` chunks) in a mask, packed in order: the first sixteen in lanes 0..15 of the
+// result, the next sixteen in `rest` (a caller takes at most 32)
+SWARMSIM_AVX512_BMI2 inline __m512i packedLanes(std::uint64_t mask, std::size_t chunks, __m512i& rest) {
   const __m512i iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-  const auto lo = static_cast<__mmask16>(mask), hi = static_cast<__mmask16>(mask >> 16);
-  const int n = __builtin_popcount(lo);
-  const __m512i first = _mm512_maskz_compress_epi32(lo, iota);
-  const __m512i second = _mm512_maskz_compress_epi32(hi, _mm512_add_epi32(iota, _mm512_set1_epi32(16)));
-  // the second's lanes after the first's n: those up to 15 in the first, the others from lane 0 of rest
-  const __m512i shift = _mm512_sub_epi32(iota, _mm512_set1_epi32(n));
-  const __m512i packed = _mm512_mask_permutexvar_epi32(first, static_cast<__mmask16>(0xffffu << n), shift, second);
-  rest = _mm512_maskz_permutexvar_epi32(0xffff, _mm512_add_epi32(iota, _mm512_set1_epi32(16 - n)), second);
-  return packed;
+  __m512i lo = _mm512_maskz_compress_epi32(static_cast<__mmask16>(mask), iota);
+  __m512i hi = _mm512_setzero_si512();
+  int n = __builtin_popcount(static_cast<unsigned>(mask & 0xffffu));
+  for (std::size_t c = 1; c < chunks; ++c) {
+    const auto cm = static_cast<__mmask16>(mask >> (16 * c));
+    if (cm == 0) continue;
+    const __m512i x =
+        _mm512_maskz_compress_epi32(cm, _mm512_add_epi32(iota, _mm512_set1_epi32(16 * static_cast<int>(c))));
+    // x's lanes after the n so far: those below 16 in lo, the others in hi (lanes past the count: anything)
+    if (n < 16) {
+      lo = _mm512_mask_permutexvar_epi32(lo, static_cast<__mmask16>(0xffffu << n),
+                                         _mm512_sub_epi32(iota, _mm512_set1_epi32(n)), x);
+    }
+    const auto inHi = static_cast<__mmask16>(n >= 16 ? 0xffffu << (n - 16) : 0xffffu);
+    hi = _mm512_mask_permutexvar_epi32(hi, inHi, _mm512_add_epi32(iota, _mm512_set1_epi32(16 - n)), x);
+    n += __builtin_popcount(cm);
+  }
+  rest = hi;
+  return lo;
 }
 
-// nearSums on sixteen lanes, for at most 32 candidates in two chunks: each chunk's sixteen rows transposed as
+// lanes `at` (0..47) of a field of the chunks (the third only where `third`)
+SWARMSIM_AVX512_BMI2 inline __m512 lanesOf(const Chunk16* c, bool third, __m512 Chunk16::*field, __m512i at) {
+  const __m512 two = _mm512_permutex2var_ps(c[0].*field, at, c[1].*field);
+  if (!third) return two;
+  return _mm512_mask_permutexvar_ps(two, _mm512_cmpge_epi32_mask(at, _mm512_set1_epi32(32)), at, c[2].*field);
+}
+
+// nearSums on sixteen lanes, for at most 48 candidates in three chunks: each chunk's sixteen rows transposed as
 // zonalRowsAvx2 transposes eight, every value computed by the operations classifyLanes and zonalBlock use, on the
-// same operands; the entries of a class gathered from the two chunks by their packed lane numbers
+// same operands; the entries of a class gathered from the chunks by their packed lane numbers
 SWARMSIM_AVX512_BMI2 bool nearSumsAvx512(std::size_t m, const std::uint32_t* cand, const float* rows, std::uint32_t far,
                                          float qx, float qy, float qz, float vx, float vy, float vz, float threshold,
                                          float inv2s2, float near2, float reach2, std::size_t K, const ZoneLanes& z,
                                          NearScratch& s, NearSums& out) {
-  if (m > 32 || m == 0 || K == 0 || K > 16) return false;
+  if (m > 48 || m == 0 || K == 0 || K > 16) return false;
   const __m512 self = _mm512_setr_ps(qx, qy, qz, 0.0f, vx, vy, vz, 0.0f, qx, qy, qz, 0.0f, vx, vy, vz, 0.0f);
-  const Chunk16 c0 = chunk16(0, m, cand, rows, far, self, threshold, near2, reach2);
-  Chunk16 c1;
-  if (m > 16) {
-    c1 = chunk16(16, m, cand, rows, far, self, threshold, near2, reach2);
-  } else {
-    c1.dx = c1.dy = c1.dz = c1.d2 = c1.ux = c1.uy = c1.uz = _mm512_setzero_ps();
-    c1.pos = _mm512_setzero_si512();
-    c1.con = c1.near = c1.reach = 0;
+  const std::size_t chunks = (m + 15) / 16;
+  const bool third = chunks == 3;
+  Chunk16 c[3];
+  std::uint64_t con = 0, near = 0, reach = 0;
+  for (std::size_t k = 0; k < 3; ++k) {
+    if (k < chunks) {
+      c[k] = chunk16(16 * k, m, cand, rows, far, self, threshold, near2, reach2);
+    } else {
+      c[k].dx = c[k].dy = c[k].dz = c[k].d2 = c[k].ux = c[k].uy = c[k].uz = _mm512_setzero_ps();
+      c[k].pos = _mm512_setzero_si512();
+      c[k].con = c[k].near = c[k].reach = 0;
+    }
+    con |= std::uint64_t{c[k].con} << (16 * k);
+    near |= std::uint64_t{c[k].near} << (16 * k);
+    reach |= std::uint64_t{c[k].reach} << (16 * k);
   }
-  const std::uint32_t con = c0.con | std::uint32_t{c1.con} << 16, near = c0.near | std::uint32_t{c1.near} << 16;
-  const std::uint32_t reach = c0.reach | std::uint32_t{c1.reach} << 16;
-  const auto mk = static_cast<std::size_t>(__builtin_popcount(near));
+  const auto mk = static_cast<std::size_t>(__builtin_popcountll(near));
   if (mk < K) return false;
   // F_int's K: the near entries' squared distances packed, each one's rank the number of them below it
-  std::uint32_t chosen = near;
+  std::uint64_t chosen = near;
   if (mk > K) {
+    if (mk > 32) return false;
     __m512i nearRest;
-    const __m512i nearIdx = packedLanes(near, nearRest);
+    const __m512i nearIdx = packedLanes(near, chunks, nearRest);
     const __m512 inf = _mm512_set1_ps(std::numeric_limits<float>::infinity());
     const auto inLo = static_cast<__mmask16>(mk >= 16 ? 0xffffu : (1u << mk) - 1u);
-    const __m512 lo = _mm512_mask_permutex2var_ps(c0.d2, inLo, nearIdx, c1.d2);
-    const __m512 ndLo = _mm512_mask_mov_ps(inf, inLo, lo);
+    const __m512 ndLo = _mm512_mask_mov_ps(inf, inLo, lanesOf(c, third, &Chunk16::d2, nearIdx));
     const __m512i one = _mm512_set1_epi32(1);
     __m512i rankLo = _mm512_setzero_si512();
     std::uint32_t pick;
@@ -554,7 +576,7 @@ SWARMSIM_AVX512_BMI2 bool nearSumsAvx512(std::size_t m, const std::uint32_t* can
       pick = _mm512_mask_cmplt_epi32_mask(inLo, rankLo, _mm512_set1_epi32(static_cast<int>(K)));
     } else {
       const auto inHi = static_cast<__mmask16>((1u << (mk - 16)) - 1u);
-      const __m512 ndHi = _mm512_mask_mov_ps(inf, inHi, _mm512_permutex2var_ps(c0.d2, nearRest, c1.d2));
+      const __m512 ndHi = _mm512_mask_mov_ps(inf, inHi, lanesOf(c, third, &Chunk16::d2, nearRest));
       __m512i rankHi = _mm512_setzero_si512();
       for (std::size_t j = 0; j < mk; ++j) {
         const __m512i at = _mm512_set1_epi32(static_cast<int>(j & 15));
@@ -567,29 +589,32 @@ SWARMSIM_AVX512_BMI2 bool nearSumsAvx512(std::size_t m, const std::uint32_t* can
              std::uint32_t{_mm512_mask_cmplt_epi32_mask(inHi, rankHi, vk)} << 16;
     }
     if (static_cast<std::size_t>(__builtin_popcount(pick)) != K) return false;  // a tie at the K-th place
-    chosen = static_cast<std::uint32_t>(_pdep_u32(pick, near));
+    chosen = _pdep_u64(pick, near);
   }
-  // the K in order, lane q for the q-th (gathered from both chunks by their lane numbers)
+  // the K in order, lane q for the q-th (gathered from the chunks by their lane numbers)
   __m512i unusedRest;
-  const __m512i pick = packedLanes(chosen, unusedRest);
-  const __m512 dx = _mm512_permutex2var_ps(c0.dx, pick, c1.dx), dy = _mm512_permutex2var_ps(c0.dy, pick, c1.dy);
-  const __m512 dz = _mm512_permutex2var_ps(c0.dz, pick, c1.dz), d2 = _mm512_permutex2var_ps(c0.d2, pick, c1.d2);
-  const __m512 ux = _mm512_permutex2var_ps(c0.ux, pick, c1.ux), uy = _mm512_permutex2var_ps(c0.uy, pick, c1.uy);
-  const __m512 uz = _mm512_permutex2var_ps(c0.uz, pick, c1.uz);
+  const __m512i pick = packedLanes(chosen, chunks, unusedRest);
+  const __m512 dx = lanesOf(c, third, &Chunk16::dx, pick), dy = lanesOf(c, third, &Chunk16::dy, pick);
+  const __m512 dz = lanesOf(c, third, &Chunk16::dz, pick), d2 = lanesOf(c, third, &Chunk16::d2, pick);
+  const __m512 ux = lanesOf(c, third, &Chunk16::ux, pick), uy = lanesOf(c, third, &Chunk16::uy, pick);
+  const __m512 uz = lanesOf(c, third, &Chunk16::uz, pick);
   s.reserveCandidates(m + 32);
-  _mm512_storeu_si512(s.chosen.data(), _mm512_permutex2var_epi32(c0.pos, pick, c1.pos));
+  __m512i js = _mm512_permutex2var_epi32(c[0].pos, pick, c[1].pos);
+  if (third)
+    js = _mm512_mask_permutexvar_epi32(js, _mm512_cmpge_epi32_mask(pick, _mm512_set1_epi32(32)), pick, c[2].pos);
+  _mm512_storeu_si512(s.chosen.data(), js);
   // F_con: up to sixteen entries summed here as constraintSumScratch sums them (lanes 8..15 after lanes 0..7, then
   // the eight lanes in order), more packed in scratch.dx/dy/dz/d2 for the caller's constraintSumScratch
-  const int nc = __builtin_popcount(con);
+  const int nc = __builtin_popcountll(con);
+  if (nc > 32 || __builtin_popcountll(reach) > 32) return false;
   out.conSum = Vec3::Zero();
   out.conCount = 0;
   out.conSummed = nc <= 16;
-  if (con != 0 && nc <= 16) {
-    __m512i unused;
-    const __m512i at = packedLanes(con, unused);
-    const auto in = static_cast<__mmask16>((1u << nc) - 1u);
-    const __m512 cx = _mm512_permutex2var_ps(c0.dx, at, c1.dx), cy = _mm512_permutex2var_ps(c0.dy, at, c1.dy);
-    const __m512 cz = _mm512_permutex2var_ps(c0.dz, at, c1.dz), cd2 = _mm512_permutex2var_ps(c0.d2, at, c1.d2);
+  if (con != 0) {
+    __m512i rest;
+    const __m512i at = packedLanes(con, chunks, rest);
+    const __m512 cx = lanesOf(c, third, &Chunk16::dx, at), cy = lanesOf(c, third, &Chunk16::dy, at);
+    const __m512 cz = lanesOf(c, third, &Chunk16::dz, at), cd2 = lanesOf(c, third, &Chunk16::d2, at);
     if (nc <= 8) {  // (the usual case: eight lanes, as constraintSumScratch's one block)
       using L = AvxLanes;
       const L::V x{lowHalf(cx)}, y{lowHalf(cy)}, zz{lowHalf(cz)}, dd{lowHalf(cd2)};
@@ -607,7 +632,9 @@ SWARMSIM_AVX512_BMI2 bool nearSumsAvx512(std::size_t m, const std::uint32_t* can
         _mm256_store_ps(l, _mm256_add_ps(_mm256_setzero_ps(), parts[a]));
         out.conSum[a] = laneSum(l);
       }
-    } else {
+      out.conCount = nc;
+    } else if (nc <= 16) {
+      const auto in = static_cast<__mmask16>((1u << nc) - 1u);
       const __m512i noSign = _mm512_set1_epi32(0x7fffffff);
       const __m512 man = _mm512_add_ps(_mm512_add_ps(absOf(cx, noSign), absOf(cy, noSign)), absOf(cz, noSign));
       const Avx512Lanes::V e = expLanes<Avx512Lanes>({_mm512_mul_ps(_mm512_mul_ps(man, man), _mm512_set1_ps(-inv2s2))});
@@ -620,28 +647,27 @@ SWARMSIM_AVX512_BMI2 bool nearSumsAvx512(std::size_t m, const std::uint32_t* can
         _mm256_store_ps(l, _mm256_add_ps(_mm256_add_ps(_mm256_setzero_ps(), lowHalf(parts[a])), highHalf(parts[a])));
         out.conSum[a] = laneSum(l);
       }
-    }
-    out.conCount = nc;
-  } else if (con != 0) {
-    s.reserve(m + 32);
-    __m512i rest;
-    const __m512i at = packedLanes(con, rest);
-    const __m512i ats[2] = {at, rest};
-    for (int h = 0; h < (__builtin_popcount(con) > 16 ? 2 : 1); ++h) {
-      _mm512_storeu_ps(s.dx.data() + 16 * h, _mm512_permutex2var_ps(c0.dx, ats[h], c1.dx));
-      _mm512_storeu_ps(s.dy.data() + 16 * h, _mm512_permutex2var_ps(c0.dy, ats[h], c1.dy));
-      _mm512_storeu_ps(s.dz.data() + 16 * h, _mm512_permutex2var_ps(c0.dz, ats[h], c1.dz));
-      _mm512_storeu_ps(s.d2.data() + 16 * h, _mm512_permutex2var_ps(c0.d2, ats[h], c1.d2));
+      out.conCount = nc;
+    } else {
+      s.reserve(m + 32);
+      _mm512_storeu_ps(s.dx.data(), cx);
+      _mm512_storeu_ps(s.dy.data(), cy);
+      _mm512_storeu_ps(s.dz.data(), cz);
+      _mm512_storeu_ps(s.d2.data(), cd2);
+      _mm512_storeu_ps(s.dx.data() + 16, lanesOf(c, third, &Chunk16::dx, rest));
+      _mm512_storeu_ps(s.dy.data() + 16, lanesOf(c, third, &Chunk16::dy, rest));
+      _mm512_storeu_ps(s.dz.data() + 16, lanesOf(c, third, &Chunk16::dz, rest));
+      _mm512_storeu_ps(s.d2.data() + 16, lanesOf(c, third, &Chunk16::d2, rest));
     }
   }
   if (reach != 0) {
     __m512i rest;
-    _mm512_storeu_si512(s.mdeIdx.data(), packedLanes(reach, rest));
+    _mm512_storeu_si512(s.mdeIdx.data(), packedLanes(reach, chunks, rest));
     _mm512_storeu_si512(s.mdeIdx.data() + 16, rest);
   }
-  out.counts[0] = static_cast<std::size_t>(__builtin_popcount(con));
+  out.counts[0] = static_cast<std::size_t>(nc);
   out.counts[1] = mk;
-  out.counts[2] = static_cast<std::size_t>(__builtin_popcount(reach));
+  out.counts[2] = static_cast<std::size_t>(__builtin_popcountll(reach));
   // zonalBlock's sums over the K (lanes from K on in no zone), lanes 8..15 added after lanes 0..7 as the
   // eight-lane kernel adds its second block
   const auto inK = static_cast<__mmask16>(K >= 16 ? 0xffffu : (1u << K) - 1u);

@@ -131,8 +131,8 @@ bool nearSumsLanes(LaneSet lanes);
 // indices in scratch.mdeIdx, the counts, and F_int's K nearest within near2 (ties to the lower index) as sorted
 // positions in their given order in scratch.chosen, with their F_int (v: the insect's velocity) and farthest
 // squared distance. Returns false where it does not apply, having left nothing the caller may use: none or more
-// than 32 candidates, K = 0 or more than 16, fewer than K within near2, or a tie of distances at the K-th place
-// (the general path takes those). Only where nearSumsLanes(lanes).
+// than 48 candidates, K = 0 or more than 16, fewer than K or more than 32 within near2, more than 32 in F_con's or
+// MDE's class, or a tie of distances at the K-th place (the general path takes those). Only where nearSumsLanes(lanes).
 bool nearSums(std::size_t m, const std::uint32_t* cand, const float* rows, std::uint32_t far, const Vec3& q,
               const Vec3& v, float threshold, float inv2s2, float near2, float reach2, std::size_t K,
               const ZoneLanes& zones, NearScratch& scratch, NearSums& out);
