@@ -773,7 +773,7 @@ Vec3 zonalForce(std::size_t m, const ZoneLanes& z, NearScratch& s, bool avx) {
 float farthestRow2(std::size_t m, const std::uint32_t* prev, const std::uint32_t* pos, const float* rows,
                    std::size_t count, const Vec3& q, LaneSet lanes) {
 #if SWARMSIM_X86_LANES
-  if ((lanes == LaneSet::kAvx2 || lanes == LaneSet::kAvx512) && m > 0 && count < (std::size_t{1} << 28)) {
+  if (lanes == LaneSet::kAvx2 && m > 0 && count < (std::size_t{1} << 28)) {  // (not kAvx512: see the header)
     return farthestRow2Avx2(m, prev, pos, rows, q.x(), q.y(), q.z());
   }
 #else

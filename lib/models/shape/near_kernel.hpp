@@ -139,7 +139,8 @@ bool nearSums(std::size_t m, const std::uint32_t* cand, const float* rows, std::
 
 // the largest squared distance from q of the rows at sorted positions pos[prev[0, m)], of `count` rows (rows
 // as gatherClassify reads them; the squared distance as it computes it, so the same bits on every lane set:
-// AVX2 gathers eight at a time, below 2^28 rows)
+// the AVX2 lane set gathers eight at a time, below 2^28 rows; the others, AVX-512 too, take one row at a time,
+// which was faster than the gathers on an AMD Zen 4, shape.md)
 float farthestRow2(std::size_t m, const std::uint32_t* prev, const std::uint32_t* pos, const float* rows,
                    std::size_t count, const Vec3& q, LaneSet lanes);
 
