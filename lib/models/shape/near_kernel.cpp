@@ -415,16 +415,18 @@ void gatherClassify(std::size_t m, const std::uint32_t* cand, const float* rows,
 }
 
 namespace {
-// F_int from the zonal sums: Σ_k ω_k / N_k (zone k's sum), zone rep with the sign −1
+// F_int from the zonal sums: Σ_k ω_k / N_k (zone k's sum), zone rep with the sign −1. Without a branch: an empty
+// zone's sum is +0 (every lane added +0 or −0 to +0) and its scale 0, and adding +0 leaves the sum as it was (a
+// sum that starts at +0 never becomes −0), so the result is that of skipping the empty zones
 Vec3 zonalResult(const ZoneLanes& z, const float out[12]) {
-  Vec3 f = Vec3::Zero();
+  float f[3] = {0.0f, 0.0f, 0.0f};
   const float sign[3] = {-1.0f, 1.0f, 1.0f};
   for (int zone = 0; zone < 3; ++zone) {
-    if (out[9 + zone] == 0.0f) continue;
-    const Vec3 sum(out[3 * zone], out[3 * zone + 1], out[3 * zone + 2]);
-    f += sum * (sign[zone] * z.w[zone] / out[9 + zone]);
+    const float n = out[9 + zone];
+    const float scale = n > 0.0f ? sign[zone] * z.w[zone] / (n > 0.0f ? n : 1.0f) : 0.0f;
+    for (int a = 0; a < 3; ++a) f[a] += out[3 * zone + a] * scale;
   }
-  return f;
+  return Vec3(f[0], f[1], f[2]);
 }
 }  // namespace
 
