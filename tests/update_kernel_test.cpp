@@ -184,3 +184,102 @@ TEST_CASE("shape update: the sample points on SIMD lanes equal Eigen's placement
     }
   }
 }
+
+TEST_CASE("shape update: the step's end on SIMD lanes writes what the one-insect-at-a-time code writes",
+          "[shape][update_kernel]") {
+  // the scalar code of an insect that neither MDE nor an obstacle moves: x = t (+ 0), Eigen's clamp to the domain,
+  // the state, the move, |v| and |target − x|
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-2.0f, 2.0f);
+  const std::size_t n = 53;
+  std::vector<float> in[12];  // t, start, nv, target
+  for (auto& a : in) {
+    a.resize(n);
+    for (float& v : a) v = u(rng);
+  }
+  const float lo[3] = {-1.5f, 0.0f, -1.0f}, hi[3] = {1.5f, 1.0f, -0.0f};
+  for (std::size_t k = 0; k < n; k += 5) {   // signed zeros at the domain's zero faces and at the sums
+    in[1][k] = -0.0f;                        // t.y = −0 against lo.y = +0
+    in[2][k + 1 < n ? k + 1 : k] = 0.0f;     // t.z = +0 against hi.z = −0
+    in[0][k] = -0.0f;                        // t.x = −0 inside the domain (+ 0 makes it +0)
+    in[9][k] = in[0][k];                     // at its sample point along x
+    in[6][k] = in[7][k] = in[8][k] = -0.0f;  // standing still
+  }
+  std::vector<std::uint32_t> ids(n);
+  for (std::size_t k = 0; k < n; ++k) ids[k] = static_cast<std::uint32_t>(7 * k + 1);
+  for (const bool addZero : {true, false}) {
+    for (const bool shaped : {true, false}) {
+      for (const bool withMove : {true, false}) {
+        // expected, one insect at a time
+        std::vector<float> want[8];  // p, v, speed, err
+        for (auto& w : want) w.assign(n, 99.0f);
+        for (std::size_t k = 0; k < n; ++k) {
+          Vec3 x(in[0][k], in[1][k], in[2][k]);
+          if (addZero) x += Vec3::Zero();
+          x = x.cwiseMax(Vec3(lo[0], lo[1], lo[2])).cwiseMin(Vec3(hi[0], hi[1], hi[2]));
+          const Vec3 v(in[6][k], in[7][k], in[8][k]);
+          for (int a = 0; a < 3; ++a) {
+            want[a][k] = x[a];
+            want[3 + a][k] = v[a];
+          }
+          want[6][k] = v.norm();
+          if (shaped) want[7][k] = (Vec3(in[9][k], in[10][k], in[11][k]) - x).norm();
+        }
+        for (const LaneSet lanes : swarmsim_test::laneSetsOfThisCpu()) {
+          for (const std::size_t first : {std::size_t{0}, std::size_t{3}, std::size_t{17}}) {
+            for (std::size_t count = 0; first + count <= n; ++count) {
+              std::vector<float> got[8];
+              for (auto& g : got) g.assign(n, 99.0f);
+              std::vector<float> move(3 * n, 99.0f);
+              std::vector<std::uint32_t> id(n, 99u);
+              std::vector<std::uint8_t> moved(n, 7u);
+              InsectWrite w;
+              w.t = {in[0].data(), in[1].data(), in[2].data()};
+              w.start = {in[3].data(), in[4].data(), in[5].data()};
+              w.nv = {in[6].data(), in[7].data(), in[8].data()};
+              w.target = {in[9].data(), in[10].data(), in[11].data()};
+              w.ids = ids.data();
+              for (int a = 0; a < 3; ++a) {
+                w.lo[a] = lo[a];
+                w.hi[a] = hi[a];
+              }
+              w.addZero = addZero;
+              w.shaped = shaped;
+              w.p = {got[0].data(), got[1].data(), got[2].data()};
+              w.v = {got[3].data(), got[4].data(), got[5].data()};
+              w.speed = got[6].data();
+              w.err = got[7].data();
+              w.id = id.data();
+              w.move = withMove ? move.data() : nullptr;
+              w.moved = moved.data();
+              writeInsects(w, first, count, lanes);
+              for (std::size_t k = 0; k < n; ++k) {
+                const bool inside = k >= first && k < first + count;
+                CAPTURE(addZero, shaped, withMove, static_cast<int>(lanes), first, count, k);
+                for (int a = 0; a < 8; ++a) {
+                  CAPTURE(a, got[a][k], want[a][k]);
+                  if (inside && (a != 7 || shaped)) {
+                    REQUIRE(sameBits(got[a][k], want[a][k]));
+                  } else {
+                    REQUIRE(got[a][k] == 99.0f);
+                  }
+                }
+                REQUIRE(id[k] == (inside ? ids[k] : 99u));
+                REQUIRE(moved[k] == (inside ? 0u : 7u));
+                for (int a = 0; a < 3; ++a) {
+                  const float m = move[3 * k + static_cast<std::size_t>(a)];
+                  CAPTURE(a, m);
+                  if (inside && withMove) {
+                    REQUIRE(sameBits(m, want[a][k] - in[3 + a][k]));
+                  } else {
+                    REQUIRE(m == 99.0f);
+                  }
+                }
+              }
+            }
+          }
+        }
+      }
+    }
+  }
+}

@@ -690,13 +690,23 @@ SWARMSIM_AVX512_BMI2 bool nearSumsAvx512(std::size_t m, const std::uint32_t* can
   for (int a = 0; a < 9; ++a) {
     acc[a].a = _mm256_add_ps(_mm256_add_ps(_mm256_setzero_ps(), lowHalf(sums[a])), highHalf(sums[a]));
   }
-  float sum[12];
+  alignas(16) float sum[12];
   AvxLanes::treeSums8(acc, sum);
   sum[8] = treeSum<AvxLanes>(acc[8]);
-  sum[9] = static_cast<float>(__builtin_popcount(inRep));
-  sum[10] = static_cast<float>(__builtin_popcount(inAli));
-  sum[11] = static_cast<float>(__builtin_popcount(inAtt));
-  out.fInt = zonalResult(z, sum);
+  // zonalResult without its branches: each zone's scale on a lane (0 for an empty zone, as there), then the
+  // zones added to +0 in their order
+  const __m128 count = _mm_cvtepi32_ps(
+      _mm_setr_epi32(__builtin_popcount(inRep), __builtin_popcount(inAli), __builtin_popcount(inAtt), 1));
+  const __m128 signedW = _mm_setr_ps(-1.0f * z.w[0], 1.0f * z.w[1], 1.0f * z.w[2], 0.0f);
+  const __m128 scale =
+      _mm_and_ps(_mm_cmpgt_ps(count, _mm_setzero_ps()), _mm_div_ps(signedW, _mm_max_ps(count, _mm_set1_ps(1.0f))));
+  sum[9] = sum[10] = sum[11] = 0.0f;
+  __m128 f = _mm_add_ps(_mm_setzero_ps(), _mm_mul_ps(_mm_loadu_ps(sum), _mm_shuffle_ps(scale, scale, 0x00)));
+  f = _mm_add_ps(f, _mm_mul_ps(_mm_loadu_ps(sum + 3), _mm_shuffle_ps(scale, scale, 0x55)));
+  f = _mm_add_ps(f, _mm_mul_ps(_mm_loadu_ps(sum + 6), _mm_shuffle_ps(scale, scale, 0xaa)));
+  alignas(16) float fl[4];
+  _mm_store_ps(fl, f);
+  out.fInt = Vec3(fl[0], fl[1], fl[2]);
   const __m512 kept2 = _mm512_maskz_mov_ps(inK, d2);  // (squared distances: none below zero)
   const __m256 m8 = _mm256_max_ps(lowHalf(kept2), highHalf(kept2));
   const __m128 m4 = _mm_max_ps(_mm256_castps256_ps128(m8), _mm256_extractf128_ps(m8, 1));

@@ -701,8 +701,7 @@ class ShapeModel final : public Model {
       move_.resize(3 * n + 1);  // (+ 1: LocalMoveBound reads four floats at a time)
       moveBox_.assign(static_cast<std::size_t>(chunkCount(n)), MoveBox{});
     }
-    // (balanced: only some insects have neighbours to push them)
-    parallelForBalanced(n, 64, [&](std::size_t k) {
+    const auto insectEnd = [&](std::size_t k) {
       Vec3 x(tx_[k], ty_[k], tz_[k]);
       bool pushed = false;
       if (md > 0.0f && nearest) {
@@ -741,6 +740,39 @@ class ShapeModel final : public Model {
       next_.id[k] = ids_[k];
       speed_[k] = Vec3(nvx_[k], nvy_[k], nvz_[k]).norm();
       if (shaped) err_[k] = (Vec3(tgx_[k], tgy_[k], tgz_[k]) - x).norm();
+    };
+    // most insects neither MDE nor an obstacle moves: eight at a time with the same bits (update_kernel.hpp),
+    // then insectEnd for the others (balanced: only some insects have neighbours to push them)
+    const bool listed = md > 0.0f && nearest;
+    InsectWrite write;
+    for (std::size_t c = 0; c < 3; ++c) {
+      write.lo[c] = lo[static_cast<Eigen::Index>(c)];
+      write.hi[c] = hi[static_cast<Eigen::Index>(c)];
+    }
+    write.t = {tx_.data(), ty_.data(), tz_.data()};
+    write.start = {sx, sy, sz};
+    write.nv = {nvx_.data(), nvy_.data(), nvz_.data()};
+    write.target = {tgx_.data(), tgy_.data(), tgz_.data()};
+    write.ids = ids_.data();
+    write.addZero = listed;
+    write.shaped = shaped;
+    write.p = {next_.px.data(), next_.py.data(), next_.pz.data()};
+    write.v = {next_.vx.data(), next_.vy.data(), next_.vz.data()};
+    write.id = next_.id.data();
+    write.move = nearest ? move_.data() : nullptr;
+    write.moved = movedFlag_.data();
+    write.speed = speed_.data();
+    write.err = err_.data();
+    const bool anyLanes = md <= 0.0f || listed;  // (else every insect takes the grid's MDE)
+    parallelForBalancedChunks(n, 64, [&](std::size_t a, std::size_t b) {
+      if (!anyLanes) {
+        for (std::size_t k = a; k < b; ++k) insectEnd(k);
+        return;
+      }
+      writeInsects(write, a, b - a, lanes);
+      for (std::size_t k = a; k < b; ++k) {
+        if ((listed && mdeCount_[k] != 0) || !clearance_.leaves(Vec3(tx_[k], ty_[k], tz_[k]))) insectEnd(k);
+      }
     });
     std::size_t moved = 0;
     for (std::size_t k = 0; k < n; ++k) moved += movedFlag_[k];

@@ -110,6 +110,75 @@ void updateBlock(const InsectUpdate& u, std::size_t first, std::size_t count, co
   for (int c = 0; c < 6; ++c) std::copy(tout[c], tout[c] + m, out[c] + first + i);
 }
 
+// writeInsects of eight insects from k on
+template <typename L>
+inline void writeLanes(const InsectWrite& w, std::size_t k) {
+  using V = typename L::V;
+  V x[3], v[3];
+  for (int c = 0; c < 3; ++c) {
+    x[c] = L::load(w.t[c] + k);
+    if (w.addZero) x[c] = L::add(x[c], L::set1(0.0f));
+    // std::max(x, lo) is lo where lo > x, else x; std::min(·, hi) is hi where hi < it
+    x[c] = L::min(L::set1(w.hi[c]), L::max(L::set1(w.lo[c]), x[c]));
+    v[c] = L::load(w.nv[c] + k);
+    L::store(w.p[c] + k, x[c]);
+    L::store(w.v[c] + k, v[c]);
+  }
+  L::store(w.speed + k, norm3<L>(v[0], v[1], v[2]));
+  if (w.shaped) {
+    V d[3];
+    for (int c = 0; c < 3; ++c) d[c] = L::sub(L::load(w.target[c] + k), x[c]);
+    L::store(w.err + k, norm3<L>(d[0], d[1], d[2]));
+  }
+  if (w.move) {
+    alignas(32) float m[3][kLanes];
+    for (int c = 0; c < 3; ++c) L::store(m[c], L::sub(x[c], L::load(w.start[c] + k)));
+    float* out = w.move + 3 * k;
+    for (std::size_t l = 0; l < kLanes; ++l) {
+      for (int c = 0; c < 3; ++c) out[3 * l + static_cast<std::size_t>(c)] = m[c][l];
+    }
+  }
+}
+
+template <typename L>
+void writeBlock(const InsectWrite& w, std::size_t first, std::size_t count) {
+  std::copy(w.ids + first, w.ids + first + count, w.id + first);
+  std::fill(w.moved + first, w.moved + first + count, std::uint8_t{0});
+  std::size_t k = first;
+  const std::size_t end = first + count;
+  for (; k + kLanes <= end; k += kLanes) writeLanes<L>(w, k);
+  if (k == end) return;
+  // the last few: through padded copies (zeros past the end), written back as many as there are
+  const std::size_t m = end - k;
+  alignas(32) float in[12][kLanes] = {}, out[8][kLanes] = {}, moveOut[3 * kLanes] = {};
+  InsectWrite t = w;
+  const std::array<const float*, 3>* from[4] = {&w.t, &w.start, &w.nv, &w.target};
+  std::array<const float*, 3>* to[4] = {&t.t, &t.start, &t.nv, &t.target};
+  for (int g = 0; g < 4; ++g) {
+    for (std::size_t c = 0; c < 3; ++c) {
+      const float* src = (*from[g])[c];
+      float* dst = in[3 * static_cast<std::size_t>(g) + c];
+      if (src && (g != 3 || w.shaped) && (g != 1 || w.move)) std::copy(src + k, src + end, dst);
+      (*to[g])[c] = dst;
+    }
+  }
+  for (std::size_t c = 0; c < 3; ++c) {
+    t.p[c] = out[c];
+    t.v[c] = out[3 + c];
+  }
+  t.speed = out[6];
+  t.err = out[7];
+  t.move = w.move ? moveOut : nullptr;
+  writeLanes<L>(t, 0);
+  for (std::size_t c = 0; c < 3; ++c) {
+    std::copy(out[c], out[c] + m, w.p[c] + k);
+    std::copy(out[3 + c], out[3 + c] + m, w.v[c] + k);
+  }
+  std::copy(out[6], out[6] + m, w.speed + k);
+  if (w.shaped) std::copy(out[7], out[7] + m, w.err + k);
+  if (w.move) std::copy(moveOut, moveOut + 3 * m, w.move + 3 * k);
+}
+
 // placeTargets one sample at a time
 inline void placeOne(const TargetPlacement& t, std::uint32_t i, float out[3]) {
   const float* a = t.keyA + 3 * std::size_t{i};
@@ -170,6 +239,12 @@ __attribute__((flatten)) void updateSse(SWARMSIM_UPDATE_ARGS) { updateBlock<SseL
 SWARMSIM_AVX __attribute__((flatten)) void updateAvx(SWARMSIM_UPDATE_ARGS) {
   updateBlock<AvxLanes>(u, first, count, fInt, fCon);
 }
+__attribute__((flatten)) void writeSse(const InsectWrite& w, std::size_t first, std::size_t count) {
+  writeBlock<SseLanes>(w, first, count);
+}
+SWARMSIM_AVX __attribute__((flatten)) void writeAvx(const InsectWrite& w, std::size_t first, std::size_t count) {
+  writeBlock<AvxLanes>(w, first, count);
+}
 #undef SWARMSIM_UPDATE_ARGS
 #endif
 
@@ -207,6 +282,19 @@ void placeTargets(const TargetPlacement& t, const std::uint32_t* sample, std::si
     ty[k] = o[1];
     tz[k] = o[2];
   }
+}
+
+void writeInsects(const InsectWrite& w, std::size_t first, std::size_t count, LaneSet lanes) {
+#if SWARMSIM_X86_LANES
+  if (lanes == LaneSet::kSse) {
+    writeSse(w, first, count);
+  } else {
+    writeAvx(w, first, count);
+  }
+#else
+  (void)lanes;
+  writeBlock<ScalarLanes>(w, first, count);
+#endif
 }
 
 }  // namespace swarmsim

@@ -35,6 +35,29 @@ struct InsectUpdate {
 void updateInsects(const InsectUpdate &u, std::size_t first, std::size_t count, const float *const fInt[3],
                    const float *const fCon[3], LaneSet lanes);
 
+// what the write of the step's end reads and writes, by sorted position k
+struct InsectWrite {
+  std::array<const float *, 3> t{};       // the moved positions (updateInsects' t, after the obstacle ramp)
+  std::array<const float *, 3> start{};   // the positions at the start of the step (for `move`)
+  std::array<const float *, 3> nv{};      // the new velocities
+  std::array<const float *, 3> target{};  // each insect's sample point (read only when shaped)
+  const std::uint32_t *ids = nullptr;
+  float lo[3] = {}, hi[3] = {};  // the domain
+  bool addZero = false;          // x = t + 0 (MDE's push of an insect with no one to push it), else x = t
+  bool shaped = false;
+  std::array<float *, 3> p{}, v{};  // out: the state's positions and velocities
+  std::uint32_t *id = nullptr;      // out: the state's ids
+  float *move = nullptr;            // out, unless null: x − start, three floats an insect
+  std::uint8_t *moved = nullptr;    // out: 0 (not pushed)
+  float *speed = nullptr;           // out: |nv|
+  float *err = nullptr;             // out (shaped only): |target − x|
+};
+
+// For k in [first, first + count), the step's end of an insect that neither MDE nor an obstacle moves: x = t (+ 0
+// where addZero) clamped to the domain as Eigen's cwiseMax(lo).cwiseMin(hi) clamps it (std::max, std::min), then
+// the writes above, with the norms as Eigen's. The caller redoes the others.
+void writeInsects(const InsectWrite &w, std::size_t first, std::size_t count, LaneSet lanes);
+
 // the sample points of a step: keyframe interpolation between two keys, then the path's placement
 struct TargetPlacement {
   const float *keyA = nullptr;  // the samples' positions at the two keys, x, y, z of each (3 floats a sample)
