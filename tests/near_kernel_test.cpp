@@ -426,3 +426,38 @@ TEST_CASE(
   CHECK(conPacked > 10);
   CHECK(threeChunks > 10);
 }
+
+TEST_CASE("near kernels: fillRows writes each insect's position and velocity as one row, on every lane set",
+          "[shape][near_kernel]") {
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<float> u(-3.0f, 3.0f);
+  const std::size_t n = 45;
+  std::vector<float> in[6];
+  for (auto& a : in) {
+    a.resize(n);
+    for (float& v : a) v = u(rng);
+  }
+  in[4][7] = -0.0f;  // a signed zero stays as it is
+  for (const LaneSet lanes : swarmsim_test::laneSetsOfThisCpu()) {
+    for (const std::size_t first : {std::size_t{0}, std::size_t{5}, std::size_t{16}}) {
+      for (std::size_t count = 0; first + count <= n; ++count) {
+        std::vector<float> rows(kRowFloats * n, 99.0f);
+        fillRows(in[0].data(), in[1].data(), in[2].data(), in[3].data(), in[4].data(), in[5].data(), first, count,
+                 rows.data(), lanes);
+        for (std::size_t k = 0; k < n; ++k) {
+          const bool inside = k >= first && k < first + count;
+          const float want[kRowFloats] = {in[0][k], in[1][k], in[2][k], 0.0f, in[3][k], in[4][k], in[5][k], 0.0f};
+          for (std::size_t a = 0; a < kRowFloats; ++a) {
+            CAPTURE(static_cast<int>(lanes), first, count, k, a);
+            const float got = rows[kRowFloats * k + a];
+            if (inside) {
+              REQUIRE(std::memcmp(&got, &want[a], sizeof got) == 0);
+            } else {
+              REQUIRE(got == 99.0f);
+            }
+          }
+        }
+      }
+    }
+  }
+}

@@ -740,6 +740,56 @@ bool nearSums(std::size_t m, const std::uint32_t* cand, const float* rows, std::
 #endif
 }
 
+#if SWARMSIM_X86_LANES
+namespace {
+SWARMSIM_AVX void fillRowsAvx(const float* x, const float* y, const float* z, const float* vx, const float* vy,
+                              const float* vz, std::size_t first, std::size_t end, float* rows) {
+  std::size_t k = first;
+  for (; k + kLanes <= end; k += kLanes) {
+    const __m256 zero = _mm256_setzero_ps();
+    const __m256 r0 = _mm256_loadu_ps(x + k), r1 = _mm256_loadu_ps(y + k), r2 = _mm256_loadu_ps(z + k);
+    const __m256 r4 = _mm256_loadu_ps(vx + k), r5 = _mm256_loadu_ps(vy + k), r6 = _mm256_loadu_ps(vz + k);
+    // (x y, z 0) pairs, then (x y z 0) quads of insects l and l + 4 in the halves
+    const __m256 t0 = _mm256_unpacklo_ps(r0, r1), t1 = _mm256_unpackhi_ps(r0, r1);
+    const __m256 t2 = _mm256_unpacklo_ps(r2, zero), t3 = _mm256_unpackhi_ps(r2, zero);
+    const __m256 t4 = _mm256_unpacklo_ps(r4, r5), t5 = _mm256_unpackhi_ps(r4, r5);
+    const __m256 t6 = _mm256_unpacklo_ps(r6, zero), t7 = _mm256_unpackhi_ps(r6, zero);
+    const __m256 p[4] = {_mm256_shuffle_ps(t0, t2, 0x44), _mm256_shuffle_ps(t0, t2, 0xee),
+                         _mm256_shuffle_ps(t1, t3, 0x44), _mm256_shuffle_ps(t1, t3, 0xee)};
+    const __m256 v[4] = {_mm256_shuffle_ps(t4, t6, 0x44), _mm256_shuffle_ps(t4, t6, 0xee),
+                         _mm256_shuffle_ps(t5, t7, 0x44), _mm256_shuffle_ps(t5, t7, 0xee)};
+    float* out = rows + kRowFloats * k;
+    for (std::size_t l = 0; l < 4; ++l) {
+      _mm256_storeu_ps(out + kRowFloats * l, _mm256_permute2f128_ps(p[l], v[l], 0x20));
+      _mm256_storeu_ps(out + kRowFloats * (l + 4), _mm256_permute2f128_ps(p[l], v[l], 0x31));
+    }
+  }
+  for (; k < end; ++k) {
+    float* row = rows + kRowFloats * k;
+    const float r[kRowFloats] = {x[k], y[k], z[k], 0.0f, vx[k], vy[k], vz[k], 0.0f};
+    std::copy(r, r + kRowFloats, row);
+  }
+}
+}  // namespace
+#endif
+
+void fillRows(const float* x, const float* y, const float* z, const float* vx, const float* vy, const float* vz,
+              std::size_t first, std::size_t count, float* rows, LaneSet lanes) {
+#if SWARMSIM_X86_LANES
+  if (lanes != LaneSet::kSse) {
+    fillRowsAvx(x, y, z, vx, vy, vz, first, first + count, rows);
+    return;
+  }
+#else
+  (void)lanes;
+#endif
+  for (std::size_t k = first; k < first + count; ++k) {
+    float* row = rows + kRowFloats * k;
+    const float r[kRowFloats] = {x[k], y[k], z[k], 0.0f, vx[k], vy[k], vz[k], 0.0f};
+    std::copy(r, r + kRowFloats, row);
+  }
+}
+
 bool zonalFromRows(LaneSet lanes) {
 #if SWARMSIM_X86_LANES
   return lanes == LaneSet::kAvx2 || lanes == LaneSet::kAvx512;

@@ -80,6 +80,11 @@ class AlignedFloats {
   float* data_ = nullptr;
 };
 
+// rows[kRowFloats k + ·] = (x, y, z, 0, vx, vy, vz, 0)[k] for k in [first, first + count): eight rows at a time with
+// whole-row stores on AVX (the stores of a row miss the cache together), one float at a time otherwise
+void fillRows(const float* x, const float* y, const float* z, const float* vx, const float* vy, const float* vz,
+              std::size_t first, std::size_t count, float* rows, LaneSet lanes);
+
 // classifyCandidates of the candidates at sorted positions cand[0, m), which go to scratch.cj: candidate
 // e's position is the first three floats of row cand[e] of `rows` (kRowFloats per sorted position), and row
 // `far` holds a point far from everything (the padding of the last lanes)

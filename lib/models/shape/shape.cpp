@@ -276,38 +276,44 @@ class ShapeModel final : public Model {
     const float* gy = grid_.sortedY().data();
     const float* gz = grid_.sortedZ().data();
     for (std::size_t a = 0; a < kRowFloats; ++a) rows[kRowFloats * n + a] = a < 3 ? 3.0e38f : 0.0f;
-    const auto copyIn = [&](const std::vector<std::uint32_t>& order) {
-      parallelFor(n, [&](std::size_t k) {
-        const std::uint32_t i = order[k];
-        vx_[k] = s.vx[i];
-        vy_[k] = s.vy[i];
-        vz_[k] = s.vz[i];
-        float* row = rows + kRowFloats * k;
-        row[0] = gx[k];
-        row[1] = gy[k];
-        row[2] = gz[k];
-        row[3] = 0.0f;
-        row[4] = vx_[k];
-        row[5] = vy_[k];
-        row[6] = vz_[k];
-        row[7] = 0.0f;
-        newPos_[i] = static_cast<std::uint32_t>(k);  // last step's sorted position (the state index) -> this step's
-        ids_[k] = s.id[i];
-        // the insect's sample: where last step left it when the state is as last step wrote it (it is, but
-        // for the step after a resume), else through the id (a random access)
-        const bool same = i < lastIds_.size() && lastIds_[i] == ids_[k];
-        if (assigned) sample_[k] = same ? lastSample_[i] : assign_[ids_[k]];
-        if (!same) asLastStep.store(false, std::memory_order_relaxed);  // rare: no contention
+    const LaneSet rowLanes = laneSet();
+    const auto copyIn = [&](const std::vector<std::uint32_t>& order, bool inOrder) {
+      parallelChunks(n, [&](std::size_t first, std::size_t last, int) {
+        bool allSame = true;
+        if (inOrder) {  // (the grid kept its cells: order[k] = k, and the copies run whole vectors)
+          std::copy(s.vx.begin() + first, s.vx.begin() + last, vx_.begin() + first);
+          std::copy(s.vy.begin() + first, s.vy.begin() + last, vy_.begin() + first);
+          std::copy(s.vz.begin() + first, s.vz.begin() + last, vz_.begin() + first);
+          std::copy(s.id.begin() + first, s.id.begin() + last, ids_.begin() + first);
+          std::copy(identity_.begin() + first, identity_.begin() + last, newPos_.begin() + first);
+        }
+        for (std::size_t k = first; k < last; ++k) {
+          const std::uint32_t i = order[k];
+          if (!inOrder) {
+            vx_[k] = s.vx[i];
+            vy_[k] = s.vy[i];
+            vz_[k] = s.vz[i];
+            newPos_[i] = static_cast<std::uint32_t>(k);  // last step's sorted position (the state index) -> this step's
+            ids_[k] = s.id[i];
+          }
+          // the insect's sample: where last step left it when the state is as last step wrote it (it is, but
+          // for the step after a resume), else through the id (a random access)
+          const bool same = i < lastIds_.size() && lastIds_[i] == ids_[k];
+          if (assigned) sample_[k] = same ? lastSample_[i] : assign_[ids_[k]];
+          allSame = allSame && same;
+        }
+        if (!allSame) asLastStep.store(false, std::memory_order_relaxed);  // rare: no contention
+        fillRows(gx, gy, gz, vx_.data(), vy_.data(), vz_.data(), first, last - first, rows, rowLanes);
       });
     };
-    copyIn(cellsKept ? identity_ : grid_.order());
+    copyIn(cellsKept ? identity_ : grid_.order(), cellsKept);
     if (cellsKept && !asLastStep.load(std::memory_order_relaxed)) {
       // the state is not in the order the kept grid has (it was changed between the steps): a new grid
       grid_.build(s.px.data(), s.py.data(), s.pz.data(), n, cellWanted);
       ++gridBuilds_;
       cellsKept = false;
       asLastStep.store(lastIds_.size() == n, std::memory_order_relaxed);
-      copyIn(grid_.order());
+      copyIn(grid_.order(), false);
     }
     const std::vector<std::uint32_t>& order = cellsKept ? identity_ : grid_.order();
 
