@@ -770,6 +770,7 @@ class ShapeModel final : public Model {
     write.speed = speed_.data();
     write.err = err_.data();
     const bool anyLanes = md <= 0.0f || listed;  // (else every insect takes the grid's MDE)
+    const float md2Slack = md2 * (1.0f + 1e-4f);
     parallelForBalancedChunks(n, 64, [&](std::size_t a, std::size_t b) {
       if (!anyLanes) {
         for (std::size_t k = a; k < b; ++k) insectEnd(k);
@@ -777,7 +778,23 @@ class ShapeModel final : public Model {
       }
       writeInsects(write, a, b - a, lanes);
       for (std::size_t k = a; k < b; ++k) {
-        if ((listed && mdeCount_[k] != 0) || !clearance_.leaves(Vec3(tx_[k], ty_[k], tz_[k]))) insectEnd(k);
+        const float qx = tx_[k], qy = ty_[k], qz = tz_[k];
+        bool again = !clearance_.leaves(Vec3(qx, qy, qz));
+        if (listed && !again && mdeCount_[k] != 0) {
+          // MDE pushes the insect only where a candidate is now nearer than d_min (or exactly where it is): with
+          // none, listPush adds +0 and the write stands. The test takes a little more than d_min (float slack).
+          if (mdeCount_[k] == kMdeNone) {
+            again = true;
+          } else {
+            const std::uint32_t* cand = mdeNear_.data() + k * kMdeRoom;
+            for (std::size_t e = 0; e < mdeCount_[k]; ++e) {
+              const std::uint32_t j = cand[e];
+              const float dx = tx_[j] - qx, dy = ty_[j] - qy, dz = tz_[j] - qz;
+              again = again || !(dx * dx + dy * dy + dz * dz >= md2Slack);
+            }
+          }
+        }
+        if (again) insectEnd(k);
       }
     });
     std::size_t moved = 0;
