@@ -243,32 +243,40 @@ TEST_CASE("Perlin noise on eight AVX-512 lanes equals withGradient bit for bit",
   const PerlinNoise3 noises[4] = {PerlinNoise3(11), PerlinNoise3(12), PerlinNoise3(0xDEADBEEF), PerlinNoise3(5)};
   Lcg rng{23};
   int mismatches = 0, compared = 0;
-  // one, three and four noises (three at a time inside: the fourth is a second group)
-  for (const int count : {1, 3, 4}) {
-    for (int b = 0; b < 2000; ++b) {
-      double p[3][kWide];
-      for (auto& axis : p)
-        for (double& c : axis) c = latticeCoordinate(rng);
-      std::vector<double> g[3];
-      for (auto& gi : g) gi.assign(static_cast<std::size_t>(count * kWide), -7.0);
-      PerlinNoise3::withGradientWide(noises, count, p[0], p[1], p[2], g[0].data(), g[1].data(), g[2].data());
-      for (int k = 0; k < count; ++k) {
-        for (int l = 0; l < kWide; ++l) {
-          Vec3d grad;
-          noises[k].withGradient(Vec3d(p[0][l], p[1][l], p[2][l]), grad);
-          const auto i = static_cast<std::size_t>(k * kWide + l);
-          ++compared;
-          if (!(sameBits(grad.x(), g[0][i]) && sameBits(grad.y(), g[1][i]) && sameBits(grad.z(), g[2][i])) &&
-              ++mismatches <= 5) {
-            UNSCOPED_INFO("noise " << k << " at (" << p[0][l] << ", " << p[1][l] << ", " << p[2][l]
-                                   << "): gradient (" << grad.transpose() << ") vs (" << g[0][i] << " " << g[1][i]
-                                   << " " << g[2][i] << ")");
+  // the hashes by scalar look-ups, and by byte permutes where the CPU has VBMI
+  std::vector<bool> hashes = {false};
+  if (PerlinNoise3::batchVbmi()) {
+    hashes.push_back(true);
+  } else {
+    WARN("no AVX-512 VBMI here (or SWARMSIM_NO_VBMI set): the byte-permute hashes are not tested");
+  }
+  for (const bool vbmi : hashes)
+    // one, three and four noises (three at a time inside: the fourth is a second group)
+    for (const int count : {1, 3, 4}) {
+      for (int b = 0; b < 2000; ++b) {
+        double p[3][kWide];
+        for (auto& axis : p)
+          for (double& c : axis) c = latticeCoordinate(rng);
+        std::vector<double> g[3];
+        for (auto& gi : g) gi.assign(static_cast<std::size_t>(count * kWide), -7.0);
+        PerlinNoise3::withGradientWide(noises, count, p[0], p[1], p[2], g[0].data(), g[1].data(), g[2].data(), vbmi);
+        for (int k = 0; k < count; ++k) {
+          for (int l = 0; l < kWide; ++l) {
+            Vec3d grad;
+            noises[k].withGradient(Vec3d(p[0][l], p[1][l], p[2][l]), grad);
+            const auto i = static_cast<std::size_t>(k * kWide + l);
+            ++compared;
+            if (!(sameBits(grad.x(), g[0][i]) && sameBits(grad.y(), g[1][i]) && sameBits(grad.z(), g[2][i])) &&
+                ++mismatches <= 5) {
+              UNSCOPED_INFO("vbmi " << vbmi << ", noise " << k << " at (" << p[0][l] << ", " << p[1][l] << ", "
+                                    << p[2][l] << "): gradient (" << grad.transpose() << ") vs (" << g[0][i] << " "
+                                    << g[1][i] << " " << g[2][i] << ")");
+            }
           }
         }
       }
     }
-  }
-  CHECK(compared == 2000 * 8 * 8);
+  CHECK(compared == static_cast<int>(hashes.size()) * 2000 * 8 * 8);
   CHECK(mismatches == 0);
 }
 
@@ -289,7 +297,7 @@ TEST_CASE("The exact curl in batches equals curlRaw bit for bit", "[noise][field
       std::vector<double> c[3];
       for (auto& ci : c) ci.assign(n + 1, -1.0);
       pot.curlRawBatch(x[0].data(), x[1].data(), x[2].data(), n, c[0].data(), c[1].data(), c[2].data(), avx,
-                       PerlinNoise3::batchWide());
+                       PerlinNoise3::batchWide(), PerlinNoise3::batchVbmi());
       int bad = 0;
       for (std::size_t i = 0; i < n; ++i) {
         const Vec3d want = pot.curlRaw(Vec3d(x[0][i], x[1][i], x[2][i]));

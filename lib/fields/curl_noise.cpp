@@ -83,7 +83,7 @@ Vec3d NoisePotential::curlRaw(const Vec3d& x) const {
 }
 
 void NoisePotential::curlRawBatch(const double* x, const double* y, const double* z, std::size_t n, double* cx,
-                                  double* cy, double* cz, bool avx, bool wideLanes) const {
+                                  double* cy, double* cz, bool avx, bool wideLanes, bool vbmi) const {
   // eight points at a time on AVX-512, else four (the same bits)
   const bool wide = avx && wideLanes;
   const std::size_t L = wide ? PerlinNoise3::kWideLanes : PerlinNoise3::kLanes;
@@ -106,7 +106,7 @@ void NoisePotential::curlRawBatch(const double* x, const double* y, const double
       // g[a][c * L + l] = ∂P_c/∂u_a at point i + l, curlRaw's g[c][a]
       double g[3][3 * PerlinNoise3::kWideLanes];
       if (wide) {
-        PerlinNoise3::withGradientWide(perlin_.data(), 3, u[0] + i, u[1] + i, u[2] + i, g[0], g[1], g[2]);
+        PerlinNoise3::withGradientWide(perlin_.data(), 3, u[0] + i, u[1] + i, u[2] + i, g[0], g[1], g[2], vbmi);
       } else {
         PerlinNoise3::withGradientLanes(perlin_.data(), 3, u[0] + i, u[1] + i, u[2] + i, nullptr, g[0], g[1], g[2],
                                         avx);

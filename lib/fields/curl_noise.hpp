@@ -54,9 +54,9 @@ class NoisePotential {
   // curlRaw at the n points (x[i], y[i], z[i]) into (cx[i], cy[i], cz[i]), equal to it bit for bit, computed
   // PerlinNoise3::kLanes points at a time on SIMD lanes (avx as in PerlinNoise3::withGradientLanes), or
   // kWideLanes at a time where avx and wide are set (wide: PerlinNoise3::batchWide(), which reads the environment,
-  // asked once by the caller)
+  // asked once by the caller; vbmi: PerlinNoise3::batchVbmi(), likewise)
   void curlRawBatch(const double* x, const double* y, const double* z, std::size_t n, double* cx, double* cy,
-                    double* cz, bool avx, bool wide) const;
+                    double* cz, bool avx, bool wide, bool vbmi) const;
   double d0() const { return params_.d0; }
 
  private:

@@ -257,11 +257,48 @@ struct PerlinNoise3::Lanes {
     store(gz, grad[2]);
   }
 
+  // The eight lanes' corner rows of one noise by byte permutes (AVX-512 VBMI): perm_[i] is p[i mod 256] for
+  // every index the hash forms (below 512), so the hash's sums wrap in bytes and each look-up is a permute of
+  // the 256-byte table (two 128-byte halves, chosen by the index's top bit). The eight corners' indices come
+  // out in cornerGradients' order (aa, ba, ab, bb, then each + 1), eight lanes each: rows[8 c + l].
+#define SWARMSIM_NOISE_VBMI __attribute__((target("avx512f,avx512bw,avx512vl,avx512vbmi,avx2")))
+  // p[i] of the table t0..t3 (256 bytes) for each byte i
+  SWARMSIM_NOISE_VBMI SWARMSIM_LANE_INLINE static __m512i lookup(__m512i i, __m512i t0, __m512i t1, __m512i t2,
+                                                                 __m512i t3) {
+    const __m512i lo = _mm512_permutex2var_epi8(t0, i, t1), hi = _mm512_permutex2var_epi8(t2, i, t3);
+    return _mm512_mask_blend_epi8(_mm512_movepi8_mask(i), lo, hi);
+  }
+  SWARMSIM_NOISE_VBMI static void hashRowsVbmi(const std::uint8_t* perm, const int cells[3][kWideLanes],
+                                               std::uint8_t* rows) {
+    const __m512i t0 = _mm512_loadu_si512(perm), t1 = _mm512_loadu_si512(perm + 64);
+    const __m512i t2 = _mm512_loadu_si512(perm + 128), t3 = _mm512_loadu_si512(perm + 192);
+    __m128i c8[3];  // each axis' cells as bytes, lanes 0..7
+    for (int a = 0; a < 3; ++a) {
+      c8[a] = _mm256_maskz_cvtepi32_epi8(0xff, _mm256_load_si256(reinterpret_cast<const __m256i*>(cells[a])));
+    }
+    const __m128i one = _mm_set1_epi8(1);
+    // [X | X + 1] -> [a | b] = p[·] + Y
+    const __m128i x = _mm_unpacklo_epi64(c8[0], _mm_add_epi8(c8[0], one));
+    const __m128i ab =
+        _mm_add_epi8(_mm512_maskz_extracti32x4_epi32(0xf, lookup(_mm512_castsi128_si512(x), t0, t1, t2, t3), 0),
+                     _mm_unpacklo_epi64(c8[1], c8[1]));
+    // [a | b | a + 1 | b + 1] -> [aa | ba | ab | bb] = p[·] + Z
+    const __m256i v2 = _mm256_inserti128_si256(_mm256_castsi128_si256(ab), _mm_add_epi8(ab, one), 1);
+    const __m256i w =
+        _mm256_add_epi8(_mm256_castpd_si256(_mm512_maskz_extractf64x4_pd(
+                            0xf, _mm512_castsi512_pd(lookup(_mm512_castsi256_si512(v2), t0, t1, t2, t3)), 0)),
+                        _mm256_broadcastq_epi64(c8[2]));
+    // the corners: [w | w + 1], their rows p[·] & 15
+    const __m512i v3 =
+        _mm512_maskz_inserti64x4(0xff, _mm512_castsi256_si512(w), _mm256_add_epi8(w, _mm256_set1_epi8(1)), 1);
+    _mm512_store_si512(rows, _mm512_and_si512(lookup(v3, t0, t1, t2, t3), _mm512_set1_epi8(15)));
+  }
+
   // eight points on the eight doubles of an AVX-512 register: the hashes per lane, the corners' gradients
   // by two-register permutes (kGrad's 16 rows), the arithmetic the same generic code as every other batch
   SWARMSIM_NOISE_WIDE __attribute__((flatten)) static void wide(const PerlinNoise3* noises, int count, const double* px,
-                                                                 const double* py, const double* pz, double* gx,
-                                                                 double* gy, double* gz) {
+                                                                const double* py, const double* pz, double* gx,
+                                                                double* gy, double* gz, bool vbmi) {
     alignas(64) int cells[3][kWideLanes];
     alignas(64) double t[3][kWideLanes], f[3][kWideLanes], df[3][kWideLanes];
     wideLattice<V8>(px, py, pz, cells, t, f, df);
@@ -273,26 +310,31 @@ struct PerlinNoise3::Lanes {
       col[a][0] = _mm512_load_pd(c);
       col[a][1] = _mm512_load_pd(c + 8);
     }
-    // each noise's corner rows (hash & 15) per lane, by cornerGradients' scalar look-ups (their short chains
-    // of loads are quicker than vector gathers), three noises at a time, then the gradients as vectors
-    alignas(32) int rows[3][8][kWideLanes];
+    // each noise's corner rows (hash & 15) per lane, rows[k][8 c + l]: by byte permutes where the CPU has
+    // AVX-512 VBMI (hashRowsVbmi), else by cornerGradients' scalar look-ups (their short chains of loads are
+    // quicker than vector gathers), three noises at a time, then the gradients as vectors
+    alignas(64) std::uint8_t rows[3][8 * kWideLanes];
     alignas(64) double G[8][3][kWideLanes];
     for (int first = 0; first < count; first += 3) {
       const int group = std::min(3, count - first);
       for (int k = 0; k < group; ++k) {
         const std::uint8_t* perm = noises[first + k].perm_.data();
+        if (vbmi) {
+          hashRowsVbmi(perm, cells, rows[k]);
+          continue;
+        }
         for (int l = 0; l < kWideLanes; ++l) {
           const int X = cells[0][l], Y = cells[1][l], Z = cells[2][l];
           const int a = perm[X] + Y, aa = perm[a] + Z, ab = perm[a + 1] + Z;
           const int b = perm[X + 1] + Y, ba = perm[b] + Z, bb = perm[b + 1] + Z;
           const int corner[8] = {aa, ba, ab, bb, aa + 1, ba + 1, ab + 1, bb + 1};
-          for (int c = 0; c < 8; ++c) rows[k][c][l] = perm[corner[c]] & 15;
+          for (int c = 0; c < 8; ++c) rows[k][kWideLanes * c + l] = static_cast<std::uint8_t>(perm[corner[c]] & 15);
         }
       }
       for (int k = 0; k < group; ++k) {
         for (int c = 0; c < 8; ++c) {
-          const __m512i row =
-              _mm512_maskz_cvtepu32_epi64(0xff, _mm256_load_si256(reinterpret_cast<const __m256i*>(rows[k][c])));
+          const __m512i row = _mm512_maskz_cvtepu8_epi64(
+              0xff, _mm_loadl_epi64(reinterpret_cast<const __m128i*>(rows[k] + kWideLanes * c)));
           for (int d = 0; d < 3; ++d) _mm512_store_pd(G[c][d], _mm512_maskz_permutex2var_pd(0xff, col[d][0], row, col[d][1]));
         }
         const int at = (first + k) * kWideLanes;
@@ -368,12 +410,22 @@ bool PerlinNoise3::batchAvx() {
 }
 
 void PerlinNoise3::withGradientWide(const PerlinNoise3* noises, int count, const double* px, const double* py,
-                                    const double* pz, double* gx, double* gy, double* gz) {
+                                    const double* pz, double* gx, double* gy, double* gz, bool vbmi) {
 #if SWARMSIM_X86_LANES
-  Lanes::wide(noises, count, px, py, pz, gx, gy, gz);
+  Lanes::wide(noises, count, px, py, pz, gx, gy, gz, vbmi);
 #else
-  (void)noises, (void)count, (void)px, (void)py, (void)pz, (void)gx, (void)gy, (void)gz;
+  (void)noises, (void)count, (void)px, (void)py, (void)pz, (void)gx, (void)gy, (void)gz, (void)vbmi;
   throw std::logic_error("PerlinNoise3::withGradientWide without AVX-512");
+#endif
+}
+
+bool PerlinNoise3::batchVbmi() {
+#if SWARMSIM_X86_LANES
+  static const bool cpu =
+      __builtin_cpu_supports("avx512vbmi") && __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512vl");
+  return cpu && !std::getenv("SWARMSIM_NO_VBMI");
+#else
+  return false;
 #endif
 }
 

@@ -50,11 +50,14 @@ class PerlinNoise3 {
   // withGradientLanes' gradients at kWideLanes points, the same bits: noise k's gradient at point l in
   // (gx, gy, gz)[k * kWideLanes + l]. The hashes are looked up per lane, the gradients' rows by vector
   // permutes. Only where batchWide() says so.
+  // vbmi: the hashes by byte permutes (batchVbmi(); the same bits as without)
   static void withGradientWide(const PerlinNoise3* noises, int count, const double* px, const double* py,
-                               const double* pz, double* gx, double* gy, double* gz);
+                               const double* pz, double* gx, double* gy, double* gz, bool vbmi);
   // whether the CPU has AVX-512 F and the lanes are not limited (laneSet() == kAvx512: neither
   // SWARMSIM_NO_AVX512 nor a narrower setting; read at each call)
   static bool batchWide();
+  // whether the CPU has AVX-512 VBMI (with BW and VL) and SWARMSIM_NO_VBMI is not set (read at each call)
+  static bool batchVbmi();
 
  private:
   struct Lanes;  // the SIMD code of withGradientLanes, one entry per instruction set (noise.cpp)

@@ -184,6 +184,7 @@ void NoiseField::evaluateBatch(const float* x, const float* y, const float* z, s
   constexpr std::size_t kBlock = 64;
   // (the lane sets asked once: each question reads the environment)
   const bool avx = PerlinNoise3::batchAvx(), wide = avx && PerlinNoise3::batchWide();
+  const bool vbmi = wide && PerlinNoise3::batchVbmi();
   const LaneSet lanes = laneSet();
   bool exact[kBlock];
   double px[kBlock], py[kBlock], pz[kBlock], cx[kBlock], cy[kBlock], cz[kBlock];
@@ -206,7 +207,7 @@ void NoiseField::evaluateBatch(const float* x, const float* y, const float* z, s
       oy[i] = v.y();
       oz[i] = v.z();
     }
-    potential_->curlRawBatch(px, py, pz, k, cx, cy, cz, avx, wide);
+    potential_->curlRawBatch(px, py, pz, k, cx, cy, cz, avx, wide, vbmi);
     for (std::size_t q = 0; q < k; ++q) {
       ox[slot[q]] = static_cast<float>(cx[q]);
       oy[slot[q]] = static_cast<float>(cy[q]);
