@@ -133,6 +133,7 @@ SWARMSIM_AVX512 __attribute__((flatten)) std::size_t scanAvx512(const UniformGri
   const float *sx = rows.x, *sy = rows.y, *sz = rows.z;
   const __m512 vx = _mm512_set1_ps(qx), vy = _mm512_set1_ps(qy), vz = _mm512_set1_ps(qz), vr2 = _mm512_set1_ps(r * r);
   const __m512i laneIndex = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  const __m512i self = _mm512_set1_epi32(static_cast<int>(k));
   for (int cz = rows.lo[2]; cz <= rows.hi[2]; ++cz) {
     for (int cy = rows.lo[1]; cy <= rows.hi[1]; ++cy) {
       std::uint32_t j = rows.begin(cz, cy);
@@ -146,12 +147,13 @@ SWARMSIM_AVX512 __attribute__((flatten)) std::size_t scanAvx512(const UniformGri
         // the same operations in the same order as scanAvx2 (no fused multiply-add)
         const __m512 d2 =
             _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)), _mm512_mul_ps(dz, dz));
-        unsigned hit = static_cast<unsigned>(_mm512_mask_cmp_ps_mask(valid, d2, vr2, _CMP_LE_OQ));
-        if (k - j < 16u) hit &= ~(1u << (k - j));  // not the insect itself
         const __m512i lanePos = _mm512_add_epi32(_mm512_set1_epi32(static_cast<int>(j)), laneIndex);
+        // (not the insect itself: the mask stays in a mask register, no round trip through a general one)
+        const __mmask16 hit =
+            _mm512_mask_cmp_ps_mask(_mm512_mask_cmpneq_epi32_mask(valid, lanePos, self), d2, vr2, _CMP_LE_OQ);
         // compressed in a register and stored whole (a compressing store to memory is slow on some CPUs)
-        _mm512_storeu_si512(dst + n, _mm512_maskz_compress_epi32(static_cast<__mmask16>(hit), lanePos));
-        n += static_cast<std::size_t>(__builtin_popcount(hit));
+        _mm512_storeu_si512(dst + n, _mm512_maskz_compress_epi32(hit, lanePos));
+        n += static_cast<std::size_t>(__builtin_popcount(static_cast<unsigned>(hit)));
       }
     }
   }
