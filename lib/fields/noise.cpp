@@ -268,13 +268,20 @@ struct PerlinNoise3::Lanes {
     const __m512i lo = _mm512_permutex2var_epi8(t0, i, t1), hi = _mm512_permutex2var_epi8(t2, i, t3);
     return _mm512_mask_blend_epi8(_mm512_movepi8_mask(i), lo, hi);
   }
-  SWARMSIM_NOISE_VBMI static void hashRowsVbmi(const std::uint8_t* perm, const int cells[3][kWideLanes],
-                                               std::uint8_t* rows) {
+  // (never inlined: wide()'s flatten would otherwise pull the VBMI instructions into a function without them,
+  // which clang 14's back end fails on)
+  SWARMSIM_NOISE_VBMI __attribute__((noinline)) static void hashRowsVbmi(const std::uint8_t* perm,
+                                                                         const int cells[3][kWideLanes],
+                                                                         std::uint8_t* rows) {
     const __m512i t0 = _mm512_loadu_si512(perm), t1 = _mm512_loadu_si512(perm + 64);
     const __m512i t2 = _mm512_loadu_si512(perm + 128), t3 = _mm512_loadu_si512(perm + 192);
-    __m128i c8[3];  // each axis' cells as bytes, lanes 0..7
+    // each axis' cells as bytes, lanes 0..7: the low byte of each int, by a byte permute (clang 14's back end
+    // fails on the truncating conversion here)
+    const __m512i lowBytes = _mm512_set_epi64(0, 0, 0, 0, 0, 0, 0, 0x1c1814100c080400);
+    __m128i c8[3];
     for (int a = 0; a < 3; ++a) {
-      c8[a] = _mm256_maskz_cvtepi32_epi8(0xff, _mm256_load_si256(reinterpret_cast<const __m256i*>(cells[a])));
+      const __m512i ints = _mm512_castsi256_si512(_mm256_load_si256(reinterpret_cast<const __m256i*>(cells[a])));
+      c8[a] = _mm512_maskz_extracti32x4_epi32(0xf, _mm512_maskz_permutexvar_epi8(~std::uint64_t{0}, lowBytes, ints), 0);
     }
     const __m128i one = _mm_set1_epi8(1);
     // [X | X + 1] -> [a | b] = p[·] + Y
