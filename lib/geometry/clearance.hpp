@@ -23,9 +23,9 @@ class ObstacleClearance {
   // there are obstacles at all (without, apply is the identity)
   ObstacleClearance(Grid3<float> sdf, float radius, bool any);
 
-  Vec3 apply(Vec3 x) const { return !any_ || far(x) ? x : project(x); }
   // whether apply(x) is x itself for certain (no obstacle, or x in a cell far from every one)
   bool leaves(const Vec3& x) const { return !any_ || far(x); }
+  Vec3 apply(Vec3 x) const { return leaves(x) ? x : project(x); }
   // the signed distance at x and the outward unit normal there (zero where the
   // gradient vanishes), by central differences of half a cell
   float distance(const Vec3& x) const { return sdf_.sample(x); }

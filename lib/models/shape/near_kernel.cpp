@@ -418,7 +418,25 @@ namespace {
 // F_int from the zonal sums: Σ_k ω_k / N_k (zone k's sum), zone rep with the sign −1. Without a branch: an empty
 // zone's sum is +0 (every lane added +0 or −0 to +0) and its scale 0, and adding +0 leaves the sum as it was (a
 // sum that starts at +0 never becomes −0), so the result is that of skipping the empty zones
+// (on SSE: the three zones' scales on one register, and no branch at all, which GCC kept in the scalar code)
 Vec3 zonalResult(const ZoneLanes& z, const float out[12]) {
+#if defined(__SSE2__)
+  const __m128 tail = _mm_loadu_ps(out + 8);  // (out[8..11]: the counts in lanes 0..2; lane 3 is not used)
+  const __m128 count = _mm_shuffle_ps(tail, tail, _MM_SHUFFLE(3, 3, 2, 1));
+  const __m128 signedW = _mm_setr_ps(-1.0f * z.w[0], 1.0f * z.w[1], 1.0f * z.w[2], 0.0f);
+  const __m128 scale =
+      _mm_and_ps(_mm_cmpgt_ps(count, _mm_setzero_ps()), _mm_div_ps(signedW, _mm_max_ps(count, _mm_set1_ps(1.0f))));
+  __m128 f = _mm_setzero_ps();
+  for (int zone = 0; zone < 3; ++zone) {
+    const __m128 sums = _mm_loadu_ps(out + 3 * zone);  // (lane 3: the next zone's first sum, not used)
+    const __m128 s = zone == 0 ? _mm_shuffle_ps(scale, scale, 0x00)
+                               : (zone == 1 ? _mm_shuffle_ps(scale, scale, 0x55) : _mm_shuffle_ps(scale, scale, 0xaa));
+    f = _mm_add_ps(f, _mm_mul_ps(sums, s));
+  }
+  alignas(16) float fl[4];
+  _mm_store_ps(fl, f);
+  return Vec3(fl[0], fl[1], fl[2]);
+#else
   float f[3] = {0.0f, 0.0f, 0.0f};
   const float sign[3] = {-1.0f, 1.0f, 1.0f};
   for (int zone = 0; zone < 3; ++zone) {
@@ -427,6 +445,7 @@ Vec3 zonalResult(const ZoneLanes& z, const float out[12]) {
     for (int a = 0; a < 3; ++a) f[a] += out[3 * zone + a] * scale;
   }
   return Vec3(f[0], f[1], f[2]);
+#endif
 }
 }  // namespace
 
@@ -690,23 +709,13 @@ SWARMSIM_AVX512_BMI2 bool nearSumsAvx512(std::size_t m, const std::uint32_t* can
   for (int a = 0; a < 9; ++a) {
     acc[a].a = _mm256_add_ps(_mm256_add_ps(_mm256_setzero_ps(), lowHalf(sums[a])), highHalf(sums[a]));
   }
-  alignas(16) float sum[12];
+  float sum[12];
   AvxLanes::treeSums8(acc, sum);
   sum[8] = treeSum<AvxLanes>(acc[8]);
-  // zonalResult without its branches: each zone's scale on a lane (0 for an empty zone, as there), then the
-  // zones added to +0 in their order
-  const __m128 count = _mm_cvtepi32_ps(
-      _mm_setr_epi32(__builtin_popcount(inRep), __builtin_popcount(inAli), __builtin_popcount(inAtt), 1));
-  const __m128 signedW = _mm_setr_ps(-1.0f * z.w[0], 1.0f * z.w[1], 1.0f * z.w[2], 0.0f);
-  const __m128 scale =
-      _mm_and_ps(_mm_cmpgt_ps(count, _mm_setzero_ps()), _mm_div_ps(signedW, _mm_max_ps(count, _mm_set1_ps(1.0f))));
-  sum[9] = sum[10] = sum[11] = 0.0f;
-  __m128 f = _mm_add_ps(_mm_setzero_ps(), _mm_mul_ps(_mm_loadu_ps(sum), _mm_shuffle_ps(scale, scale, 0x00)));
-  f = _mm_add_ps(f, _mm_mul_ps(_mm_loadu_ps(sum + 3), _mm_shuffle_ps(scale, scale, 0x55)));
-  f = _mm_add_ps(f, _mm_mul_ps(_mm_loadu_ps(sum + 6), _mm_shuffle_ps(scale, scale, 0xaa)));
-  alignas(16) float fl[4];
-  _mm_store_ps(fl, f);
-  out.fInt = Vec3(fl[0], fl[1], fl[2]);
+  sum[9] = static_cast<float>(__builtin_popcount(inRep));
+  sum[10] = static_cast<float>(__builtin_popcount(inAli));
+  sum[11] = static_cast<float>(__builtin_popcount(inAtt));
+  out.fInt = zonalResult(z, sum);
   const __m512 kept2 = _mm512_maskz_mov_ps(inK, d2);  // (squared distances: none below zero)
   const __m256 m8 = _mm256_max_ps(lowHalf(kept2), highHalf(kept2));
   const __m128 m4 = _mm_max_ps(_mm256_castps256_ps128(m8), _mm256_extractf128_ps(m8, 1));
@@ -742,8 +751,9 @@ bool nearSums(std::size_t m, const std::uint32_t* cand, const float* rows, std::
 
 #if SWARMSIM_X86_LANES
 namespace {
-SWARMSIM_AVX void fillRowsAvx(const float* x, const float* y, const float* z, const float* vx, const float* vy,
-                              const float* vz, std::size_t first, std::size_t end, float* rows) {
+// the whole eights of rows from first on; returns where they end
+SWARMSIM_AVX std::size_t fillRowsAvx(const float* x, const float* y, const float* z, const float* vx, const float* vy,
+                                     const float* vz, std::size_t first, std::size_t end, float* rows) {
   std::size_t k = first;
   for (; k + kLanes <= end; k += kLanes) {
     const __m256 zero = _mm256_setzero_ps();
@@ -764,11 +774,7 @@ SWARMSIM_AVX void fillRowsAvx(const float* x, const float* y, const float* z, co
       _mm256_storeu_ps(out + kRowFloats * (l + 4), _mm256_permute2f128_ps(p[l], v[l], 0x31));
     }
   }
-  for (; k < end; ++k) {
-    float* row = rows + kRowFloats * k;
-    const float r[kRowFloats] = {x[k], y[k], z[k], 0.0f, vx[k], vy[k], vz[k], 0.0f};
-    std::copy(r, r + kRowFloats, row);
-  }
+  return k;
 }
 }  // namespace
 #endif
@@ -776,14 +782,13 @@ SWARMSIM_AVX void fillRowsAvx(const float* x, const float* y, const float* z, co
 void fillRows(const float* x, const float* y, const float* z, const float* vx, const float* vy, const float* vz,
               std::size_t first, std::size_t count, float* rows, LaneSet lanes) {
 #if SWARMSIM_X86_LANES
-  if (lanes != LaneSet::kSse) {
-    fillRowsAvx(x, y, z, vx, vy, vz, first, first + count, rows);
-    return;
-  }
+  const std::size_t done =
+      lanes != LaneSet::kSse ? fillRowsAvx(x, y, z, vx, vy, vz, first, first + count, rows) : first;
 #else
   (void)lanes;
+  const std::size_t done = first;
 #endif
-  for (std::size_t k = first; k < first + count; ++k) {
+  for (std::size_t k = done; k < first + count; ++k) {
     float* row = rows + kRowFloats * k;
     const float r[kRowFloats] = {x[k], y[k], z[k], 0.0f, vx[k], vy[k], vz[k], 0.0f};
     std::copy(r, r + kRowFloats, row);

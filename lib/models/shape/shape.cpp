@@ -654,15 +654,18 @@ class ShapeModel final : public Model {
     const float md2 = md * md;
     // MDE of sorted insect k from its near list (or, without one, this step's grid): the neighbours closer
     // than d_min at the moved positions, packed in id order; returns whether it was pushed
+    // whether insect j, at its moved position, pushes insect k: nearer than d_min, or exactly where it is
+    const auto pushes = [&](std::size_t k, std::uint32_t j) {
+      const float qx = tx_[k], qy = ty_[k], qz = tz_[k];
+      const float dx = tx_[j] - qx, dy = ty_[j] - qy, dz = tz_[j] - qz;
+      const float d2 = dx * dx + dy * dy + dz * dz;
+      return (d2 < md2 && d2 > 0.0f) || (tx_[j] == qx && ty_[j] == qy && tz_[j] == qz);
+    };
     const auto listPush = [&](std::size_t k, Vec3& x) -> bool {
       NearScratch& ns = scratch_[static_cast<std::size_t>(threadIndex())];
       const float qx = tx_[k], qy = ty_[k], qz = tz_[k];
       const std::uint32_t id = ids_[k];
-      const auto counts = [&](std::uint32_t j) {
-        const float dx = tx_[j] - qx, dy = ty_[j] - qy, dz = tz_[j] - qz;
-        const float d2 = dx * dx + dy * dy + dz * dz;
-        return (d2 < md2 && d2 > 0.0f) || (tx_[j] == qx && ty_[j] == qy && tz_[j] == qz);
-      };
+      const auto counts = [&](std::uint32_t j) { return pushes(k, j); };
       std::size_t m = mdeCount_[k];
       if (m == 0) {  // nobody within MDE's reach (most insects): no push (the + 0 of an empty one)
         x += Vec3::Zero();
@@ -770,7 +773,6 @@ class ShapeModel final : public Model {
     write.speed = speed_.data();
     write.err = err_.data();
     const bool anyLanes = md <= 0.0f || listed;  // (else every insect takes the grid's MDE)
-    const float md2Slack = md2 * (1.0f + 1e-4f);
     parallelForBalancedChunks(n, 64, [&](std::size_t a, std::size_t b) {
       if (!anyLanes) {
         for (std::size_t k = a; k < b; ++k) insectEnd(k);
@@ -778,20 +780,15 @@ class ShapeModel final : public Model {
       }
       writeInsects(write, a, b - a, lanes);
       for (std::size_t k = a; k < b; ++k) {
-        const float qx = tx_[k], qy = ty_[k], qz = tz_[k];
-        bool again = !clearance_.leaves(Vec3(qx, qy, qz));
+        bool again = !clearance_.leaves(Vec3(tx_[k], ty_[k], tz_[k]));
         if (listed && !again && mdeCount_[k] != 0) {
-          // MDE pushes the insect only where a candidate is now nearer than d_min (or exactly where it is): with
-          // none, listPush adds +0 and the write stands. The test takes a little more than d_min (float slack).
+          // MDE moves the insect only where one of its candidates pushes it (listPush's own test); with none,
+          // listPush adds +0 and the write stands
           if (mdeCount_[k] == kMdeNone) {
             again = true;
           } else {
             const std::uint32_t* cand = mdeNear_.data() + k * kMdeRoom;
-            for (std::size_t e = 0; e < mdeCount_[k]; ++e) {
-              const std::uint32_t j = cand[e];
-              const float dx = tx_[j] - qx, dy = ty_[j] - qy, dz = tz_[j] - qz;
-              again = again || !(dx * dx + dy * dy + dz * dz >= md2Slack);
-            }
+            for (std::size_t e = 0; e < mdeCount_[k]; ++e) again = again || pushes(k, cand[e]);
           }
         }
         if (again) insectEnd(k);
