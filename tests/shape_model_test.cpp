@@ -372,14 +372,15 @@ TEST_CASE("shape: MDE pushes each insect from the neighbours nearer than d_min a
           "[shape]") {
   // A dense swarm gathering on a small sphere: after each of a few steps, every insect is where the one-insect
   // computation puts it: t = x + v' dt (v' the new velocity), plus MDE's push from the insects whose t is nearer
-  // than d_min (in id order, as listPush adds them), or t + 0 when there are none. Exact bits.
-  const float dt = 0.02f, md = 0.3f;
-  swarmsim::Json scenario = cacheScenario("mde", 3u, 0.5, 2.0, "list_skin", 0.3);
+  // than d_min (in id order, as listPush adds them), or t + 0 when there are none. Exact bits. Fast insects
+  // (10 m/s, 0.2 m a step) have many candidates within MDE's reach (d_min + 2 max speed dt).
+  const float dt = 0.02f, md = 0.3f, vmax = 10.0f, reach = md + 2.0f * vmax * dt;
+  swarmsim::Json scenario = cacheScenario("mde", 3u, 0.5, vmax, "list_skin", 0.3);
   scenario["swarms"][0]["params"]["min_distance"] = md;
   const swarmsim::Scenario sc = swarmsim::parseScenario(scenario, "mde.json");
   swarmsim::Simulation sim(sc);
-  for (int w = 0; w < 30; ++w) sim.step();
-  std::size_t pushed = 0, checked = 0, coincident = 0;
+  for (int w = 0; w < 60; ++w) sim.step();
+  std::size_t pushed = 0, checked = 0, coincident = 0, crowded = 0;
   for (int s = 0; s < 6; ++s) {
     const auto before = byId(sim.swarms()[0]);
     sim.step();
@@ -393,14 +394,19 @@ TEST_CASE("shape: MDE pushes each insect from the neighbours nearer than d_min a
     }
     for (std::size_t i = 0; i < n; ++i) {
       std::vector<float> nx, ny, nz;
+      std::size_t near = 0;                  // insects within MDE's reach at the step's start, so far
       for (std::size_t j = 0; j < n; ++j) {  // (ids ascending)
         const float dx = tx[j] - tx[i], dy = ty[j] - ty[i], dz = tz[j] - tz[i];
         const float d2 = dx * dx + dy * dy + dz * dz;
         coincident += j != i && d2 == 0.0f ? 1 : 0;
+        const float sx = before[j][0] - before[i][0], sy = before[j][1] - before[i][1],
+                    sz = before[j][2] - before[i][2];
+        near += j != i && sx * sx + sy * sy + sz * sz <= reach * reach ? 1 : 0;
         if (d2 < md * md && d2 > 0.0f) {
           nx.push_back(tx[j]);
           ny.push_back(ty[j]);
           nz.push_back(tz[j]);
+          crowded += near > 6 ? 1 : 0;
         }
       }
       Vec3 want(tx[i], ty[i], tz[i]);
@@ -418,4 +424,5 @@ TEST_CASE("shape: MDE pushes each insect from the neighbours nearer than d_min a
   CHECK(checked == 6 * 800);
   CHECK(coincident == 0);  // (no exactly coincident pair, which MDE separates along x)
   CHECK(pushed > 200);     // (the test has pushes to check)
+  CHECK(crowded > 50);     // (and pushes from beyond the sixth insect within MDE's reach: long candidate lists)
 }

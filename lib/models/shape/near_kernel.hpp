@@ -29,6 +29,9 @@ struct alignas(64) NearScratch {
   std::vector<std::uint32_t> conIdx, mdeIdx;           // classifyCandidates' output (with keys)
   std::vector<std::uint32_t> chosen;                   // F_int's neighbours (sorted positions), for zonalForceRows
   std::vector<std::uint64_t> sortKeys;                 // sortById's (near_list.hpp)
+  // the MDE candidates of the insects this thread took in this step's near pass, one insect's after another
+  // (the shape model's: it clears them at each step's start; they keep their room)
+  std::vector<std::uint32_t> mde;
   std::size_t rebuilds = 0;  // near lists this thread built from the grid (a statistic: one count per thread,
                              // so that no cache line is shared between the cores)
   void reserve(std::size_t n);

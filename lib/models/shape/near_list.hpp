@@ -99,13 +99,6 @@ class NearLists {
   double lastMove() const { return lastMove_; }
   float skin() const { return skin_; }
 
-  // sorted insect k's list as keep() or build() left it this step (sorted positions by ascending id), or
-  // nullptr when it has none (it did not fit)
-  const std::uint32_t* stored(std::uint32_t k, std::size_t& m) const {
-    const Slots& out = inPlace_ ? last_ : next_;
-    m = out.len[k];
-    return m == kNone ? nullptr : out.pos.data() + static_cast<std::size_t>(k) * capacity_;
-  }
   // after a step in which sorted insect k moved own[k] (m) relative to a translation common to every insect,
   // each no more than maxMove, and, where local is given, the offset of insect k to any insect within
   // localReach of it at the end of the step changed by at most (*local)[k] (upper bounds of the exact values,

@@ -400,8 +400,9 @@ class ShapeModel final : public Model {
     // over the entries that count, packed in id order, so it depends on the positions only.
     const float mdReach2 = mdReach * mdReach * (1.0f + 1e-5f);  // float slack: a larger radius is harmless
     if (nearest) {
-      mdeNear_.resize(n * kMdeRoom);
+      mdeAt_.resize(n);
       mdeCount_.resize(n);
+      for (NearScratch& ns : scratch_) ns.mde.clear();
     }
     const auto nearForces = [&](std::size_t k, NearScratch& ns, Vec3& fCon) -> Vec3 {
       const float qx = sx[k], qy = sy[k], qz = sz[k];
@@ -492,10 +493,11 @@ class ShapeModel final : public Model {
         fCon = count > 0 ? Vec3(sum * (-wCon / static_cast<float>(count))) : Vec3::Zero();
       }
       std::uint64_t* keys = ns.keys.data();  // F_int's candidates (gatherClassify's, or those of the loop above)
-      // MDE's candidates (within its reach now), kept for the MDE pass when they fit its slot
+      // MDE's candidates (within its reach now, in id order), kept for the MDE pass in this thread's store
       const std::size_t mm = counts[2];
-      mdeCount_[k] = mm <= kMdeRoom ? static_cast<std::uint8_t>(mm) : kMdeNone;
-      for (std::size_t c = 0; c < std::min(mm, kMdeRoom); ++c) mdeNear_[k * kMdeRoom + c] = cand[ns.mdeIdx[c]];
+      mdeCount_[k] = static_cast<std::uint32_t>(mm);
+      mdeAt_[k] = {static_cast<std::uint32_t>(threadIndex()), static_cast<std::uint32_t>(ns.mde.size())};
+      for (std::size_t c = 0; c < mm; ++c) ns.mde.push_back(cand[ns.mdeIdx[c]]);
       if (together) {  // (K of them)
         if (keepNear) std::copy(ns.chosen.data(), ns.chosen.data() + K, nearNext_.data() + k * K);
         reach_[k] = std::sqrt(sums.far2);
@@ -652,8 +654,6 @@ class ShapeModel final : public Model {
     movedFlag_.resize(n);
     const Vec3 lo = domain_.min.cast<float>(), hi = domain_.max.cast<float>();
     const float md2 = md * md;
-    // MDE of sorted insect k from its near list (or, without one, this step's grid): the neighbours closer
-    // than d_min at the moved positions, packed in id order; returns whether it was pushed
     // whether insect j, at its moved position, pushes insect k: nearer than d_min, or exactly where it is
     const auto pushes = [&](std::size_t k, std::uint32_t j) {
       const float qx = tx_[k], qy = ty_[k], qz = tz_[k];
@@ -661,30 +661,19 @@ class ShapeModel final : public Model {
       const float d2 = dx * dx + dy * dy + dz * dz;
       return (d2 < md2 && d2 > 0.0f) || (tx_[j] == qx && ty_[j] == qy && tz_[j] == qz);
     };
+    // MDE of sorted insect k from its candidates of the near pass (every insect within MDE's reach at the
+    // step's start, in id order: nobody moved more than max speed · dt): the neighbours closer than d_min at
+    // the moved positions, packed in id order; returns whether it was pushed
     const auto listPush = [&](std::size_t k, Vec3& x) -> bool {
       NearScratch& ns = scratch_[static_cast<std::size_t>(threadIndex())];
       const float qx = tx_[k], qy = ty_[k], qz = tz_[k];
       const std::uint32_t id = ids_[k];
-      const auto counts = [&](std::uint32_t j) { return pushes(k, j); };
-      std::size_t m = mdeCount_[k];
+      const std::size_t m = mdeCount_[k];
       if (m == 0) {  // nobody within MDE's reach (most insects): no push (the + 0 of an empty one)
         x += Vec3::Zero();
         return false;
       }
-      const std::uint32_t* cand = mdeNear_.data() + k * kMdeRoom;
-      if (m == kMdeNone) cand = lists_.stored(static_cast<std::uint32_t>(k), m);
-      if (!cand) {  // no list (too many candidates to keep): the grid's, those that count, by id
-        std::vector<std::uint32_t>& found = ns.ids;
-        found.clear();
-        grid_.forEachRun(sx[k], sy[k], sz[k], mdReach, [&](std::uint32_t b, std::uint32_t e) {
-          for (std::uint32_t j = b; j < e; ++j) {
-            if (j != k && counts(j)) found.push_back(j);
-          }
-        });
-        sortById(found, ids_.data(), ns.sortKeys, lanes);
-        cand = found.data();
-        m = found.size();
-      }
+      const std::uint32_t* cand = mdeCandidates(k);
       ns.reserveCandidates(m);
       std::size_t mc = 0, nz = 0;
       for (std::size_t e = 0; e < m; ++e) {
@@ -784,12 +773,8 @@ class ShapeModel final : public Model {
         if (listed && !again && mdeCount_[k] != 0) {
           // MDE moves the insect only where one of its candidates pushes it (listPush's own test); with none,
           // listPush adds +0 and the write stands
-          if (mdeCount_[k] == kMdeNone) {
-            again = true;
-          } else {
-            const std::uint32_t* cand = mdeNear_.data() + k * kMdeRoom;
-            for (std::size_t e = 0; e < mdeCount_[k]; ++e) again = again || pushes(k, cand[e]);
-          }
+          const std::uint32_t* cand = mdeCandidates(k);
+          for (std::size_t e = 0; e < mdeCount_[k] && !again; ++e) again = pushes(k, cand[e]);
         }
         if (again) insectEnd(k);
       }
@@ -1034,12 +1019,17 @@ class ShapeModel final : public Model {
   std::size_t keptSteps_ = 0;             // timed steps that bounded the search by them (a statistic)
   std::vector<std::uint32_t> newPos_;     // last step's sorted position (this step's state index) -> this step's
   NearLists lists_;                       // the near lists (near_list.hpp)
-  // by sorted position: the ids of the candidates within MDE's reach (this step's positions; in id order)
-  // and how many, or kMdeNone when they did not fit (MDE then takes the whole near list)
-  static constexpr std::size_t kMdeRoom = 6;
-  static constexpr std::uint8_t kMdeNone = 0xff;
-  std::vector<std::uint32_t> mdeNear_;
-  std::vector<std::uint8_t> mdeCount_;
+  // by sorted position: how many candidates within MDE's reach the near pass found (at the step's start), and
+  // where they are: which thread's store (NearScratch::mde) and from where in it (their sorted positions, in id
+  // order)
+  struct MdeAt {
+    std::uint32_t thread, first;
+  };
+  std::vector<std::uint32_t> mdeCount_;
+  std::vector<MdeAt> mdeAt_;
+  const std::uint32_t* mdeCandidates(std::size_t k) const {
+    return scratch_[mdeAt_[k].thread].mde.data() + mdeAt_[k].first;
+  }
   std::vector<float> move_;     // by sorted position: the move of this step (x, y, z)
   // per chunk: the bounding box of this step's moves and the largest squared move (min and max: the same
   // for any split), a cache line each
