@@ -136,8 +136,9 @@ bool LocalMoveBound::compute(std::size_t n, const float* x, const float* y, cons
       local[k] = (0.5f * std::sqrt(half2) + std::sqrt(own2)) * (1.0f + 1e-5f) + 1e-7f;
       if (other) {
         const float o = other[k] + otherAdd;
-        spent += static_cast<std::uint64_t>(std::min(o, 1e6f) * 1e6f);
-        spentLocal += static_cast<std::uint64_t>(std::min({o, local[k], 1e6f}) * 1e6f);
+        // (through signed integers: one instruction each, where the unsigned conversion branches)
+        spent += static_cast<std::uint64_t>(static_cast<std::int64_t>(std::min(o, 1e6f) * 1e6f));
+        spentLocal += static_cast<std::uint64_t>(static_cast<std::int64_t>(std::min({o, local[k], 1e6f}) * 1e6f));
       }
     }
     sums_[2 * static_cast<std::size_t>(chunk)] = spent;

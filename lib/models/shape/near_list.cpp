@@ -177,17 +177,50 @@ SWARMSIM_AVX2 void rankSortAvx2(const std::uint32_t* ids, const std::uint32_t* p
     out[rank] = pos[i];
   }
 }
-// rankSortAvx2 on sixteen lanes (ids padded to whole sixteens)
+// rankSortAvx2's ranks on sixteen lanes the other way round: the B sixteens of ids (padded) stay in registers, each
+// with its lanes' ranks, and each id in turn adds one to the rank of every larger one (no count through a
+// general register)
+template <int B>
+SWARMSIM_AVX512 inline void rankSortAvx512Of(const std::uint32_t* ids, const std::uint32_t* pos, std::size_t m,
+                                             std::uint32_t* out) {
+  __m512i key[B], rank[B];
+  for (int b = 0; b < B; ++b) {
+    key[b] = _mm512_loadu_si512(ids + 16 * b);
+    rank[b] = _mm512_setzero_si512();
+  }
+  const __m512i one = _mm512_set1_epi32(1);
+  for (std::size_t j = 0; j < m; ++j) {
+    const __m512i other = _mm512_set1_epi32(static_cast<int>(ids[j]));
+    for (int b = 0; b < B; ++b)
+      rank[b] = _mm512_mask_add_epi32(rank[b], _mm512_cmpgt_epu32_mask(key[b], other), rank[b], one);
+  }
+  alignas(64) std::uint32_t r[16 * B];
+  for (int b = 0; b < B; ++b) _mm512_store_si512(r + 16 * b, rank[b]);
+  for (std::size_t i = 0; i < m; ++i) out[r[i]] = pos[i];
+}
+// (ids padded to whole sixteens; m <= kRankSortMax)
 SWARMSIM_AVX512 void rankSortAvx512(const std::uint32_t* ids, const std::uint32_t* pos, std::size_t m,
                                     std::uint32_t* out) {
-  for (std::size_t i = 0; i < m; ++i) {
-    const __m512i key = _mm512_set1_epi32(static_cast<int>(ids[i]));
-    std::size_t rank = 0;
-    for (std::size_t j = 0; j < m; j += 16) {
-      const __m512i other = _mm512_loadu_si512(ids + j);
-      rank += static_cast<std::size_t>(__builtin_popcount(static_cast<unsigned>(_mm512_cmpgt_epu32_mask(key, other))));
-    }
-    out[rank] = pos[i];
+  static_assert(kRankSortMax <= 128, "rankSortAvx512: at most eight sixteens");
+  switch ((m + 15) / 16) {
+    case 0:
+      return;
+    case 1:
+      return rankSortAvx512Of<1>(ids, pos, m, out);
+    case 2:
+      return rankSortAvx512Of<2>(ids, pos, m, out);
+    case 3:
+      return rankSortAvx512Of<3>(ids, pos, m, out);
+    case 4:
+      return rankSortAvx512Of<4>(ids, pos, m, out);
+    case 5:
+      return rankSortAvx512Of<5>(ids, pos, m, out);
+    case 6:
+      return rankSortAvx512Of<6>(ids, pos, m, out);
+    case 7:
+      return rankSortAvx512Of<7>(ids, pos, m, out);
+    default:
+      return rankSortAvx512Of<8>(ids, pos, m, out);
   }
 }
 __attribute__((flatten)) std::size_t scanSse(const UniformGrid& g, std::uint32_t k, float x, float y, float z, float r,
