@@ -75,17 +75,23 @@ bool LocalMoveBound::compute(std::size_t n, const float* x, const float* y, cons
   parallelChunks(n, [&](std::size_t first, std::size_t last, int chunk) {
     Box* boxes = perChunk_.data() + static_cast<std::size_t>(chunk) * count;
     std::fill(boxes, boxes + count, kEmpty);
+    // (everything the loop reads in locals: the boxes' stores could alias what the lambda captured, which the
+    // compiler then loads again for each insect)
+    const double o[3] = {origin[0], origin[1], origin[2]}, t[3] = {top[0], top[1], top[2]}, iv = inv;
+    const std::size_t d0 = dims[0], d1 = dims[1];
+    const float *px = x, *py = y, *pz = z, *mv = move;
+    std::uint32_t* blockOf = blockOf_.data();
     for (std::size_t k = first; k < last; ++k) {
-      const double p[3] = {x[k], y[k], z[k]};
+      const double p[3] = {px[k], py[k], pz[k]};
       std::size_t at[3];
       for (int a = 0; a < 3; ++a) {
         // (p >= lo, so truncation is the floor; in double, far within the reach's slack of the exact block)
-        const double i = std::min(std::max(0.0, (p[a] - origin[a]) * inv), top[a]);
+        const double i = std::min(std::max(0.0, (p[a] - o[a]) * iv), t[a]);
         at[a] = static_cast<std::size_t>(static_cast<std::int64_t>(i));
       }
-      const std::size_t b = at[0] + dims[0] * (at[1] + dims[1] * at[2]);
-      blockOf_[k] = static_cast<std::uint32_t>(b);
-      widen(boxes[b], move + 3 * k);  // (and the next insect's first: the fourth lane)
+      const std::size_t b = at[0] + d0 * (at[1] + d1 * at[2]);
+      blockOf[k] = static_cast<std::uint32_t>(b);
+      widen(boxes[b], mv + 3 * k);  // (and the next insect's first: the fourth lane)
     }
   });
   // merged over the chunks, then over the 3 x 3 x 3 blocks about each (one axis at a time)
@@ -125,20 +131,25 @@ bool LocalMoveBound::compute(std::size_t n, const float* x, const float* y, cons
   sums_.assign(2 * chunks, 0);
   parallelChunks(n, [&](std::size_t first, std::size_t last, int chunk) {
     std::uint64_t spent = 0, spentLocal = 0;
+    const Box* boxes = tmp_.data();  // (locals: as above)
+    const std::uint32_t* blockOf = blockOf_.data();
+    const float *mv = move, *ot = other, add = otherAdd;
+    float* out = local;
     for (std::size_t k = first; k < last; ++k) {
-      const Box& m = tmp_[blockOf_[k]];
+      const Box& m = boxes[blockOf[k]];
       float half2 = 0.0f, own2 = 0.0f;
       for (int a = 0; a < 3; ++a) {
-        const float w = m.hi[a] - m.lo[a], e = move[3 * k + a] - 0.5f * (m.lo[a] + m.hi[a]);
+        const float w = m.hi[a] - m.lo[a], e = mv[3 * k + a] - 0.5f * (m.lo[a] + m.hi[a]);
         half2 += w * w;
         own2 += e * e;
       }
-      local[k] = (0.5f * std::sqrt(half2) + std::sqrt(own2)) * (1.0f + 1e-5f) + 1e-7f;
-      if (other) {
-        const float o = other[k] + otherAdd;
+      const float bound = (0.5f * std::sqrt(half2) + std::sqrt(own2)) * (1.0f + 1e-5f) + 1e-7f;
+      out[k] = bound;
+      if (ot) {
+        const float o = ot[k] + add;
         // (through signed integers: one instruction each, where the unsigned conversion branches)
         spent += static_cast<std::uint64_t>(static_cast<std::int64_t>(std::min(o, 1e6f) * 1e6f));
-        spentLocal += static_cast<std::uint64_t>(static_cast<std::int64_t>(std::min({o, local[k], 1e6f}) * 1e6f));
+        spentLocal += static_cast<std::uint64_t>(static_cast<std::int64_t>(std::min({o, bound, 1e6f}) * 1e6f));
       }
     }
     sums_[2 * static_cast<std::size_t>(chunk)] = spent;
