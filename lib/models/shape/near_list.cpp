@@ -202,26 +202,11 @@ SWARMSIM_AVX512 inline void rankSortAvx512Of(const std::uint32_t* ids, const std
 SWARMSIM_AVX512 void rankSortAvx512(const std::uint32_t* ids, const std::uint32_t* pos, std::size_t m,
                                     std::uint32_t* out) {
   static_assert(kRankSortMax <= 128, "rankSortAvx512: at most eight sixteens");
-  switch ((m + 15) / 16) {
-    case 0:
-      return;
-    case 1:
-      return rankSortAvx512Of<1>(ids, pos, m, out);
-    case 2:
-      return rankSortAvx512Of<2>(ids, pos, m, out);
-    case 3:
-      return rankSortAvx512Of<3>(ids, pos, m, out);
-    case 4:
-      return rankSortAvx512Of<4>(ids, pos, m, out);
-    case 5:
-      return rankSortAvx512Of<5>(ids, pos, m, out);
-    case 6:
-      return rankSortAvx512Of<6>(ids, pos, m, out);
-    case 7:
-      return rankSortAvx512Of<7>(ids, pos, m, out);
-    default:
-      return rankSortAvx512Of<8>(ids, pos, m, out);
-  }
+  using Sort = void (*)(const std::uint32_t*, const std::uint32_t*, std::size_t, std::uint32_t*);
+  static constexpr Sort kSorts[8] = {rankSortAvx512Of<1>, rankSortAvx512Of<2>, rankSortAvx512Of<3>,
+                                     rankSortAvx512Of<4>, rankSortAvx512Of<5>, rankSortAvx512Of<6>,
+                                     rankSortAvx512Of<7>, rankSortAvx512Of<8>};
+  if (m > 0) kSorts[(m + 15) / 16 - 1](ids, pos, m, out);
 }
 __attribute__((flatten)) std::size_t scanSse(const UniformGrid& g, std::uint32_t k, float x, float y, float z, float r,
                                              std::vector<std::uint32_t>& out) {

@@ -654,12 +654,16 @@ class ShapeModel final : public Model {
     movedFlag_.resize(n);
     const Vec3 lo = domain_.min.cast<float>(), hi = domain_.max.cast<float>();
     const float md2 = md * md;
-    // whether insect j, at its moved position, pushes insect k: nearer than d_min, or exactly where it is
-    const auto pushes = [&](std::size_t k, std::uint32_t j) {
+    // how insect j, at its moved position, acts on insect k: nearer than d_min (MDE's kernel pushes), exactly
+    // where it is (the pair separates along x), or not at all
+    struct Acts {
+      bool near, same;
+    };
+    const auto acts = [&](std::size_t k, std::uint32_t j) {
       const float qx = tx_[k], qy = ty_[k], qz = tz_[k];
       const float dx = tx_[j] - qx, dy = ty_[j] - qy, dz = tz_[j] - qz;
       const float d2 = dx * dx + dy * dy + dz * dz;
-      return (d2 < md2 && d2 > 0.0f) || (tx_[j] == qx && ty_[j] == qy && tz_[j] == qz);
+      return Acts{d2 < md2 && d2 > 0.0f, tx_[j] == qx && ty_[j] == qy && tz_[j] == qz};
     };
     // MDE of sorted insect k from its candidates of the near pass (every insect within MDE's reach at the
     // step's start, in id order: nobody moved more than max speed · dt): the neighbours closer than d_min at
@@ -678,14 +682,12 @@ class ShapeModel final : public Model {
       std::size_t mc = 0, nz = 0;
       for (std::size_t e = 0; e < m; ++e) {
         const std::uint32_t j = cand[e];
-        const float px = tx_[j], py = ty_[j], pz = tz_[j];
-        const float dx = px - qx, dy = py - qy, dz = pz - qz;
-        const float d2 = dx * dx + dy * dy + dz * dz;
-        ns.ux[mc] = px;
-        ns.uy[mc] = py;
-        ns.uz[mc] = pz;
-        mc += static_cast<std::size_t>(d2 < md2) & static_cast<std::size_t>(d2 > 0.0f);
-        if (px == qx && py == qy && pz == qz) ns.cj[nz++] = ids_[j];  // exactly coincident (rare)
+        const Acts a = acts(k, j);
+        ns.ux[mc] = tx_[j];
+        ns.uy[mc] = ty_[j];
+        ns.uz[mc] = tz_[j];
+        mc += a.near ? 1 : 0;
+        if (a.same) ns.cj[nz++] = ids_[j];  // exactly coincident (rare)
       }
       MdePush kernel(md);
       kernel.start(qx, qy, qz);
@@ -771,10 +773,13 @@ class ShapeModel final : public Model {
       for (std::size_t k = a; k < b; ++k) {
         bool again = !clearance_.leaves(Vec3(tx_[k], ty_[k], tz_[k]));
         if (listed && !again && mdeCount_[k] != 0) {
-          // MDE moves the insect only where one of its candidates pushes it (listPush's own test); with none,
+          // MDE moves the insect only where one of its candidates acts on it (listPush's own test); with none,
           // listPush adds +0 and the write stands
           const std::uint32_t* cand = mdeCandidates(k);
-          for (std::size_t e = 0; e < mdeCount_[k] && !again; ++e) again = pushes(k, cand[e]);
+          for (std::size_t e = 0; e < mdeCount_[k] && !again; ++e) {
+            const Acts act = acts(k, cand[e]);
+            again = act.near || act.same;
+          }
         }
         if (again) insectEnd(k);
       }

@@ -1,6 +1,7 @@
 #include "models/shape/update_kernel.hpp"
 
 #include <algorithm>
+#include <array>
 
 namespace swarmsim {
 
@@ -22,6 +23,28 @@ inline typename L::V select(typename L::V m, typename L::V a, typename L::V b) {
 template <typename L>
 inline typename L::V norm3(typename L::V x, typename L::V y, typename L::V z) {
   return L::sqrt(L::add(L::mul(x, x), L::add(L::mul(y, y), L::mul(z, z))));
+}
+
+// The last m (< kLanes) insects of a block through padded lane buffers: each in[c] (null: not read) copied to
+// its buffer, zeros past m (and in a buffer of a null input); body(ins, outs) run once on the buffers; the
+// first width[c] m floats of each output buffer copied to out[c] (null: not written). Output buffers hold up to
+// three floats an insect.
+template <std::size_t NIn, std::size_t NOut, typename Body>
+void throughPadded(std::size_t m, const std::array<const float*, NIn>& in, const std::array<float*, NOut>& out,
+                   const std::array<std::size_t, NOut>& width, Body&& body) {
+  alignas(32) float tin[NIn][kLanes] = {};
+  alignas(32) float tout[NOut][3 * kLanes] = {};
+  std::array<const float*, NIn> ins;
+  std::array<float*, NOut> outs;
+  for (std::size_t c = 0; c < NIn; ++c) {
+    if (in[c]) std::copy(in[c], in[c] + m, tin[c]);
+    ins[c] = tin[c];
+  }
+  for (std::size_t c = 0; c < NOut; ++c) outs[c] = tout[c];
+  body(ins, outs);
+  for (std::size_t c = 0; c < NOut; ++c) {
+    if (out[c]) std::copy(tout[c], tout[c] + width[c] * m, out[c]);
+  }
 }
 
 // eight insects: a.in[·][0..7], a.force[·][0..7] to a.out[·][0..7]
@@ -91,23 +114,25 @@ void updateBlock(const InsectUpdate& u, std::size_t first, std::size_t count, co
     updateLanes<L>(u, a);
   }
   if (i == count) return;
-  // the last few: through padded copies (zeros past the end)
-  const std::size_t m = count - i;
-  alignas(32) float tin[12][kLanes] = {}, tforce[6][kLanes] = {}, tout[6][kLanes];
-  UpdateArrays a;
-  for (int c = 0; c < 12; ++c) {
-    if (in[c] && (u.shaped || c < 9)) std::copy(in[c] + first + i, in[c] + first + i + m, tin[c]);
-    a.in[c] = tin[c];
+  // the last few: the arrays, then the forces, through padded copies
+  std::array<const float*, 18> tin;
+  std::array<float*, 6> tout;
+  for (std::size_t c = 0; c < 12; ++c) tin[c] = in[c] && (u.shaped || c < 9) ? in[c] + first + i : nullptr;
+  for (std::size_t c = 0; c < 3; ++c) {
+    tin[12 + c] = fInt[c] + i;
+    tin[15 + c] = u.shaped ? fCon[c] + i : nullptr;
   }
-  for (int c = 0; c < 3; ++c) {
-    std::copy(fInt[c] + i, fInt[c] + i + m, tforce[c]);
-    if (u.shaped) std::copy(fCon[c] + i, fCon[c] + i + m, tforce[3 + c]);
-    a.force[c] = tforce[c];
-    a.force[3 + c] = tforce[3 + c];
-  }
-  for (int c = 0; c < 6; ++c) a.out[c] = tout[c];
-  updateLanes<L>(u, a);
-  for (int c = 0; c < 6; ++c) std::copy(tout[c], tout[c] + m, out[c] + first + i);
+  for (std::size_t c = 0; c < 6; ++c) tout[c] = out[c] + first + i;
+  std::array<std::size_t, 6> width;
+  width.fill(1);
+  throughPadded(count - i, tin, tout, width,
+                [&](const std::array<const float*, 18>& ins, const std::array<float*, 6>& outs) {
+                  UpdateArrays a;
+                  std::copy(ins.begin(), ins.begin() + 12, a.in);
+                  std::copy(ins.begin() + 12, ins.end(), a.force);
+                  std::copy(outs.begin(), outs.end(), a.out);
+                  updateLanes<L>(u, a);
+                });
 }
 
 // writeInsects of eight insects from k on
@@ -148,35 +173,40 @@ void writeBlock(const InsectWrite& w, std::size_t first, std::size_t count) {
   const std::size_t end = first + count;
   for (; k + kLanes <= end; k += kLanes) writeLanes<L>(w, k);
   if (k == end) return;
-  // the last few: through padded copies (zeros past the end), written back as many as there are
-  const std::size_t m = end - k;
-  alignas(32) float in[12][kLanes] = {}, out[8][kLanes] = {}, moveOut[3 * kLanes] = {};
-  InsectWrite t = w;
-  const std::array<const float*, 3>* from[4] = {&w.t, &w.start, &w.nv, &w.target};
-  std::array<const float*, 3>* to[4] = {&t.t, &t.start, &t.nv, &t.target};
-  for (int g = 0; g < 4; ++g) {
-    for (std::size_t c = 0; c < 3; ++c) {
-      const float* src = (*from[g])[c];
-      float* dst = in[3 * static_cast<std::size_t>(g) + c];
-      if (src && (g != 3 || w.shaped) && (g != 1 || w.move)) std::copy(src + k, src + end, dst);
-      (*to[g])[c] = dst;
-    }
-  }
+  // the last few: t, start, nv and target to p, v, speed, err and move, through padded copies
+  std::array<const float*, 12> in;
   for (std::size_t c = 0; c < 3; ++c) {
-    t.p[c] = out[c];
-    t.v[c] = out[3 + c];
+    in[c] = w.t[c] + k;
+    in[3 + c] = w.move ? w.start[c] + k : nullptr;
+    in[6 + c] = w.nv[c] + k;
+    in[9 + c] = w.shaped ? w.target[c] + k : nullptr;
   }
-  t.speed = out[6];
-  t.err = out[7];
-  t.move = w.move ? moveOut : nullptr;
-  writeLanes<L>(t, 0);
-  for (std::size_t c = 0; c < 3; ++c) {
-    std::copy(out[c], out[c] + m, w.p[c] + k);
-    std::copy(out[3 + c], out[3 + c] + m, w.v[c] + k);
-  }
-  std::copy(out[6], out[6] + m, w.speed + k);
-  if (w.shaped) std::copy(out[7], out[7] + m, w.err + k);
-  if (w.move) std::copy(moveOut, moveOut + 3 * m, w.move + 3 * k);
+  const std::array<float*, 9> out = {w.p[0] + k,
+                                     w.p[1] + k,
+                                     w.p[2] + k,
+                                     w.v[0] + k,
+                                     w.v[1] + k,
+                                     w.v[2] + k,
+                                     w.speed + k,
+                                     w.shaped ? w.err + k : nullptr,
+                                     w.move ? w.move + 3 * k : nullptr};
+  const std::array<std::size_t, 9> width = {1, 1, 1, 1, 1, 1, 1, 1, 3};
+  throughPadded(end - k, in, out, width,
+                [&](const std::array<const float*, 12>& ins, const std::array<float*, 9>& outs) {
+                  InsectWrite t = w;
+                  for (std::size_t c = 0; c < 3; ++c) {
+                    t.t[c] = ins[c];
+                    t.start[c] = ins[3 + c];
+                    t.nv[c] = ins[6 + c];
+                    t.target[c] = ins[9 + c];
+                    t.p[c] = outs[c];
+                    t.v[c] = outs[3 + c];
+                  }
+                  t.speed = outs[6];
+                  t.err = outs[7];
+                  t.move = w.move ? outs[8] : nullptr;
+                  writeLanes<L>(t, 0);
+                });
 }
 
 // placeTargets one sample at a time
