@@ -386,4 +386,74 @@ __attribute__((always_inline)) inline typename L::V expLanes(typename L::V x) {
   return L::mul(p, L::pow2(n));
 }
 
+// a where the mask m is set, else b (masks as the compares make them)
+template <typename L>
+__attribute__((always_inline)) inline typename L::V selectLanes(typename L::V m, typename L::V a, typename L::V b) {
+  return L::bor(L::band(m, a), L::andnot(m, b));
+}
+
+// ln x per lane for x in [2^-31, 1] (the Box-Muller draws' 1 - u): x = m 2^e with m in [√½, √2), found by
+// scaling x by 2^16, 2^8, 2^4, 2^2, 2^1 where it is below the matching power (exact), then ln m = 2 s (1 + s²/3
+// + ... + s¹⁰/11) with s = (m − 1) / (m + 1), |s| <= 0.172, and e ln 2 in two parts (Cody and Waite): error a
+// few units in the last place. Lane operations only: every lane type gives the same bits.
+template <typename L>
+__attribute__((always_inline)) inline typename L::V logUnitLanes(typename L::V x) {
+  using V = typename L::V;
+  V m = x, e = L::set1(0.0f);
+  for (const int k : {16, 8, 4, 2, 1}) {
+    const float up = static_cast<float>(1u << k);
+    const V below = L::lt(m, L::set1(1.0f / up));
+    m = selectLanes<L>(below, L::mul(m, L::set1(up)), m);
+    e = selectLanes<L>(below, L::sub(e, L::set1(static_cast<float>(k))), e);
+  }
+  const V low = L::lt(m, L::set1(0.70710678f));
+  m = selectLanes<L>(low, L::add(m, m), m);
+  e = selectLanes<L>(low, L::sub(e, L::set1(1.0f)), e);
+  const V s = L::div(L::sub(m, L::set1(1.0f)), L::add(m, L::set1(1.0f)));
+  const V z = L::mul(s, s);
+  V p = L::set1(1.0f / 11.0f);
+  p = L::add(L::mul(p, z), L::set1(1.0f / 9.0f));
+  p = L::add(L::mul(p, z), L::set1(1.0f / 7.0f));
+  p = L::add(L::mul(p, z), L::set1(1.0f / 5.0f));
+  p = L::add(L::mul(p, z), L::set1(1.0f / 3.0f));
+  p = L::add(L::mul(p, z), L::set1(1.0f));
+  const V lnm = L::mul(L::add(s, s), p);
+  return L::add(L::mul(e, L::set1(0.693359375f)), L::add(L::mul(e, L::set1(-2.12194440e-4f)), lnm));
+}
+
+// cos 2πu and sin 2πu per lane for u in [0, 1]: t = u − round(u) in [−½, ½], q = round(4 t) (the quarter turn)
+// and r = t − q/4 in [−⅛, ⅛] (both exact), θ = 2π r, Taylor polynomials of cos θ (to θ¹⁰) and sin θ (to θ⁹),
+// then the quarter turn's swap and signs: error about 1e-7. Lane operations only (the same bits on every lane
+// type).
+template <typename L>
+__attribute__((always_inline)) inline void cosSinTurnLanes(typename L::V u, typename L::V& c, typename L::V& s) {
+  using V = typename L::V;
+  const V t = L::sub(u, L::round(u));
+  const V q = L::round(L::mul(t, L::set1(4.0f)));
+  const V th = L::mul(L::sub(t, L::mul(q, L::set1(0.25f))), L::set1(6.28318531f));
+  const V z = L::mul(th, th);
+  V pc = L::set1(-1.0f / 3628800.0f);
+  pc = L::add(L::mul(pc, z), L::set1(1.0f / 40320.0f));
+  pc = L::add(L::mul(pc, z), L::set1(-1.0f / 720.0f));
+  pc = L::add(L::mul(pc, z), L::set1(1.0f / 24.0f));
+  pc = L::add(L::mul(pc, z), L::set1(-0.5f));
+  pc = L::add(L::mul(pc, z), L::set1(1.0f));
+  V ps = L::set1(1.0f / 362880.0f);
+  ps = L::add(L::mul(ps, z), L::set1(-1.0f / 5040.0f));
+  ps = L::add(L::mul(ps, z), L::set1(1.0f / 120.0f));
+  ps = L::add(L::mul(ps, z), L::set1(-1.0f / 6.0f));
+  ps = L::add(L::mul(ps, z), L::set1(1.0f));
+  ps = L::mul(ps, th);
+  // q = ±1: cos and sin swap; cos < 0 for q = 1 or ±2, sin < 0 for q = −1 or ±2
+  const V half = L::set1(0.5f), threeHalves = L::set1(1.5f);
+  const V plus1 = L::band(L::gt(q, half), L::lt(q, threeHalves));
+  const V minus1 = L::band(L::lt(q, L::set1(-0.5f)), L::gt(q, L::set1(-1.5f)));
+  const V two = L::bor(L::gt(q, threeHalves), L::lt(q, L::set1(-1.5f)));
+  const V swap = L::bor(plus1, minus1);
+  const V cs = selectLanes<L>(swap, ps, pc), sn = selectLanes<L>(swap, pc, ps);
+  const V zero = L::set1(0.0f);
+  c = selectLanes<L>(L::bor(plus1, two), L::sub(zero, cs), cs);
+  s = selectLanes<L>(L::bor(minus1, two), L::sub(zero, sn), sn);
+}
+
 }  // namespace swarmsim

@@ -9,6 +9,7 @@
 #include "core/parallel.hpp"
 #include "core/rng.hpp"
 #include "models/boids/boids_kernel.hpp"
+#include "models/boids/boids_update.hpp"
 #include "spatial/uniform_grid.hpp"
 
 namespace swarmsim {
@@ -23,14 +24,6 @@ class BoidsConfig final : public ModelConfig {
  private:
   BoidsParams p_;
 };
-
-// unit pull toward the centre, falling linearly to 0 inside radius 1/invRadius
-inline Vec3 centerPull(const Vec3& toCenter, float invRadius) {
-  const float d = toCenter.norm();
-  if (!(d > 0.0f)) return Vec3::Zero();
-  const float scale = invRadius > 0.0f ? std::min(1.0f, d * invRadius) : 1.0f;
-  return toCenter * (scale / d);
-}
 
 class Boids final : public Model {
  public:
@@ -76,48 +69,56 @@ class Boids final : public Model {
     const std::uint32_t swarmIndex = info.swarmIndex;
     const LaneSet laneKind = laneSet();
     scratch_.resize(static_cast<std::size_t>(threadCount()));
-    // phase 2 (agent by agent, right after its sums): its new velocity, in place (its neighbours read the
-    // unit velocities' copy)
-    const auto agent = [&](std::size_t k, const float sums[9]) {
-      const Vec3 x(s.px[k], s.py[k], s.pz[k]), v = s.velocity(k);
-      const Vec3 vhat(lanes_.ux[k], lanes_.uy[k], lanes_.uz[k]);
-      const Vec3 rep = -Vec3(sums[0], sums[1], sums[2]), ali(sums[3], sums[4], sums[5]), att(sums[6], sums[7], sums[8]);
-      Vec3 u = vhat * smin + rep * fr + ali * fa + att * ft + centerPull(center - x, invCr) * fc;
-      // soft walls: push back in proportion to the depth inside the margin
-      Vec3 wall = Vec3::Zero();
-      for (int a = 0; a < 3; ++a) {
-        const float lo = dmin[a] + margin - x[a];
-        const float hi = x[a] - (dmax[a] - margin);
-        if (lo > 0.0f) wall[a] += lo / margin;
-        if (hi > 0.0f) wall[a] -= hi / margin;
-      }
-      u += wall * fw;
-      if (jitter) {
-        AgentRng rng(seed, stepIndex, s.id[k], RngPurpose::kJitter, swarmIndex);
-        u += rng.normal3() * noise;
-      }
-      Vec3 nv = v + (u - v) * blend;
-      // speed limits
-      const float sp = nv.norm();
-      if (sp > smax) {
-        nv *= smax / sp;
-      } else if (sp < smin) {
-        const Vec3 dirv = sp > 1e-12f ? Vec3(nv / sp) : (vhat.squaredNorm() > 0.0f ? vhat : Vec3(1.0f, 0.0f, 0.0f));
-        nv = dirv * smin;
-      }
-      s.vx[k] = nv.x();
-      s.vy[k] = nv.y();
-      s.vz[k] = nv.z();
-    };
-    // row by row of cells (the neighbouring rows found once per row), cell by cell along it
+    // phase 2 (a row of cells at a time, right after its sums): the new velocities, in place (neighbours read the
+    // unit velocities' copy), eight agents at a time (boids_update.hpp)
+    BoidsUpdateParams up;
+    up.smin = smin;
+    up.smax = smax;
+    up.fr = fr;
+    up.fa = fa;
+    up.ft = ft;
+    up.fc = fc;
+    up.invCr = invCr;
+    up.fw = fw;
+    up.margin = margin;
+    up.blend = blend;
+    up.noise = noise;
+    up.center = center;
+    up.lo = dmin;
+    up.hi = dmax;
+    const std::size_t nx = static_cast<std::size_t>(grid_.dim(0));
+    // row by row of cells (the neighbouring rows found once per row), cell by cell along it; a row's agents are
+    // the sorted positions [first, last)
     const auto row = [&](std::size_t rowIndex) {
       BoidsScratch& scratch = scratch_[static_cast<std::size_t>(threadIndex())];
+      const std::uint32_t first = grid_.cellBegin(rowIndex * nx), last = grid_.cellEnd(rowIndex * nx + nx - 1);
+      if (first == last) return;
+      const std::size_t m = last - first;
+      if (scratch.sums.size() < m) scratch.sums.resize(2 * m);
       grid_.forEachCellOfRow(rowIndex, r3_, scratch.runs, [&](std::size_t c, const std::uint32_t* runs, std::size_t nRuns) {
         const std::uint32_t a0 = grid_.cellBegin(c), a1 = grid_.cellEnd(c);
-        if (scratch.sums.size() < a1 - a0) scratch.sums.resize(2 * (a1 - a0));
-        boidsCellSums(lanes_, a0, a1, runs, nRuns, zones, laneKind, scratch, scratch.sums.data());
-        for (std::uint32_t k = a0; k < a1; ++k) agent(k, scratch.sums[k - a0].data());
+        boidsCellSums(lanes_, a0, a1, runs, nRuns, zones, laneKind, scratch, scratch.sums.data() + (a0 - first));
       });
+      // the jitter's four uniforms of each agent, from its own stream (by id: the same draw on any thread)
+      if (jitter) {
+        if (scratch.jitter.size() < 4 * m) scratch.jitter.resize(8 * m);
+        for (std::size_t i = 0; i < m; ++i) {
+          AgentRng rng(seed, stepIndex, s.id[first + i], RngPurpose::kJitter, swarmIndex);
+          for (std::size_t w = 0; w < 4; ++w) scratch.jitter[4 * i + w] = rng.uniform();
+        }
+      }
+      const BoidsUpdateRow r = {s.px.data() + first,
+                                s.py.data() + first,
+                                s.pz.data() + first,
+                                lanes_.ux.data() + first,
+                                lanes_.uy.data() + first,
+                                lanes_.uz.data() + first,
+                                s.vx.data() + first,
+                                s.vy.data() + first,
+                                s.vz.data() + first,
+                                scratch.sums.data(),
+                                jitter ? scratch.jitter.data() : nullptr};
+      boidsUpdate(r, m, up, laneKind);
     };
     // each agent's work is a whole neighbourhood scan: worth the team from a few hundred agents on
     const std::size_t rows = grid_.rowCount();

@@ -1,7 +1,6 @@
 #include "models/boids/boids_kernel.hpp"
 
 #include <algorithm>
-#include <cstring>
 
 #include "core/lanes.hpp"
 
@@ -9,146 +8,185 @@ namespace swarmsim {
 
 namespace {
 
-constexpr float kTiny = 1e-30f;  // floor of squared lengths: the masked-off lanes stay finite
+constexpr float kTiny = 1e-30f;  // floor of squared lengths: the lanes without a neighbour stay finite
+constexpr float kFar = 3.0e38f;  // the padding's coordinates: its squared distance to any agent is +inf
+constexpr std::size_t kBlock = 16;
 
-// lane masks (all bits set in the lanes [lo, hi), none elsewhere) for 0 <= lo <= hi <= 8: rangeMask(lo, hi) is
-// the offset of one in rangeMasks()
-constexpr std::uint32_t rangeMask(std::uint32_t lo, std::uint32_t hi) {
-  return static_cast<std::uint32_t>(kLanes) * (lo * (static_cast<std::uint32_t>(kLanes) + 1) + hi);
-}
-const float* rangeMasks() {
-  struct Table {
-    alignas(32) float m[(kLanes + 1) * (kLanes + 1) * kLanes];
-    Table() {
-      for (std::uint32_t lo = 0; lo <= kLanes; ++lo) {
-        for (std::uint32_t hi = 0; hi <= kLanes; ++hi) {
-          for (std::uint32_t l = 0; l < kLanes; ++l) {
-            const std::uint32_t bits = l >= lo && l < hi ? 0xffffffffu : 0u;
-            std::memcpy(m + rangeMask(lo, hi) + l, &bits, sizeof bits);
-          }
-        }
-      }
-    }
-  };
-  static const Table table;
-  return table.m;
-}
+// the cell's candidates: six arrays of `stride` floats in one buffer, `room` of them used (whole sixteens)
+struct Candidates {
+  const float *x, *y, *z, *ux, *uy, *uz;
+  std::size_t room;
+};
 
-#if SWARMSIM_X86_LANES
-// base[idx[0..7]] to out[0..7] by one AVX2 gather
-SWARMSIM_AVX2 inline void gather8(const float* base, const std::uint32_t* idx, float* out) {
-  _mm256_store_ps(out, _mm256_i32gather_ps(base, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(idx)), 4));
-}
-#endif
-
-// the values base[idx[0..7]] as lanes
-// (through memory: no function here without the AVX target passes an AVX vector, which would change the ABI)
-template <typename L, bool kAvx2>
-inline typename L::V gatherLanes(const float* base, const std::uint32_t* idx) {
-  alignas(32) float t[kLanes];
-#if SWARMSIM_X86_LANES
-  if constexpr (kAvx2) {
-    gather8(base, idx, t);
-    return L::load(t);
+// Copy::run(in, b, e, a, at) puts the candidates [b, e) at index `at` of the six arrays a, and may write up to
+// Copy::kSlack floats past e - b (each array has that room beyond `room`); the rest of the last sixteen becomes
+// padding
+template <typename Copy>
+inline Candidates gatherCandidates(const BoidsLanesInput& in, const std::uint32_t* runs, std::size_t nRuns,
+                                   std::vector<float>& buffer) {
+  constexpr std::size_t slack = Copy::kSlack;
+  std::size_t total = 0;
+  for (std::size_t r = 0; r < nRuns; ++r) total += runs[2 * r + 1] - runs[2 * r];
+  const std::size_t room = (total + kBlock - 1) / kBlock * kBlock;
+  const std::size_t stride = room + std::max(slack, kBlock);
+  if (buffer.size() < 6 * stride) buffer.resize(6 * stride);  // (grows only: no allocation once sized)
+  float* base = buffer.data();
+  float* a[6] = {base, base + stride, base + 2 * stride, base + 3 * stride, base + 4 * stride, base + 5 * stride};
+  std::size_t at = 0;
+  for (std::size_t r = 0; r < nRuns; ++r) {
+    Copy::run(in, runs[2 * r], runs[2 * r + 1], a, at);
+    at += runs[2 * r + 1] - runs[2 * r];
   }
-#endif
-  for (std::size_t l = 0; l < kLanes; ++l) t[l] = base[idx[l]];
-  return L::load(t);
-}
-
-// the hits idx[0, m) (sorted positions) into acc, eight at a time, hit e in lane e % 8 (the lanes at or past m
-// in the last group are off; idx has room for whole lanes)
-template <typename L, bool kAvx2>
-inline void addHits(const BoidsLanesInput& in, std::uint32_t* idx, std::size_t m, const typename L::V q[6],
-                    const BoidsZones& z, typename L::V acc[9]) {
-  using V = typename L::V;
-  const V lane = L::load(kLaneIndex), one = L::set1(1.0f), tiny = L::set1(kTiny);
-  const V r1 = L::set1(z.r1sq), r2 = L::set1(z.r2sq), cosFov = L::set1(z.cosHalfFov);
-  if (m == 0) return;
-  for (std::size_t l = m; l % kLanes != 0; ++l) idx[l] = idx[0];  // lanes past m: any valid index (masked off)
-  for (std::size_t e = 0; e < m; e += kLanes) {
-    const V live = L::lt(lane, L::set1(static_cast<float>(m - e)));
-    const V dx = L::sub(gatherLanes<L, kAvx2>(in.x, idx + e), q[0]);
-    const V dy = L::sub(gatherLanes<L, kAvx2>(in.y, idx + e), q[1]);
-    const V dz = L::sub(gatherLanes<L, kAvx2>(in.z, idx + e), q[2]);
-    const V d2 = L::add(L::add(L::mul(dx, dx), L::mul(dy, dy)), L::mul(dz, dz));
-    const V inv = L::div(one, L::sqrt(L::max(d2, tiny)));
-    const V ex = L::mul(dx, inv), ey = L::mul(dy, inv), ez = L::mul(dz, inv);
-    const V rep = L::band(live, L::le(d2, r1));
-    const V nearer = L::le(d2, r2);
-    const V ali = L::andnot(rep, L::band(live, nearer));
-    const V dot = L::add(L::add(L::mul(q[3], ex), L::mul(q[4], ey)), L::mul(q[5], ez));
-    const V att = L::band(L::andnot(nearer, live), L::le(cosFov, dot));
-    acc[0] = L::add(acc[0], L::band(rep, ex));
-    acc[1] = L::add(acc[1], L::band(rep, ey));
-    acc[2] = L::add(acc[2], L::band(rep, ez));
-    acc[3] = L::add(acc[3], L::band(ali, gatherLanes<L, kAvx2>(in.ux.data(), idx + e)));
-    acc[4] = L::add(acc[4], L::band(ali, gatherLanes<L, kAvx2>(in.uy.data(), idx + e)));
-    acc[5] = L::add(acc[5], L::band(ali, gatherLanes<L, kAvx2>(in.uz.data(), idx + e)));
-    acc[6] = L::add(acc[6], L::band(att, ex));
-    acc[7] = L::add(acc[7], L::band(att, ey));
-    acc[8] = L::add(acc[8], L::band(att, ez));
+  for (std::size_t e = total; e < room; ++e) {
+    a[0][e] = a[1][e] = a[2][e] = kFar;
+    a[3][e] = a[4][e] = a[5][e] = 0.0f;
   }
+  return {a[0], a[1], a[2], a[3], a[4], a[5], room};
 }
 
-// out[a][0..8] for each agent a0 + a of the cell whose rows are h.chunkStart/chunkLive[0, nChunks) (chunks of up
-// to eight sorted positions): the lane-tree sums of rep (before negation), ali and att, axis by axis. Each agent tests the
-// chunks eight candidates at a time for those within R3 (squared distances only); the hits' sorted positions
-// are packed in scan order and summed eight at a time (hit e in lane e % 8), so square roots and divisions go
-// to hits alone. kAvx2: pack by AVX2's table look-up (packSetLanes) and load hits with its gathers (the same
-// result as the plain loops).
-template <typename L, bool kAvx2>
-inline void boidsLanes(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_t a1, std::size_t nChunks,
-                       const BoidsZones& z, BoidsScratch& h, std::array<float, 9>* out) {
+// element by element (any CPU)
+struct CopyPlain {
+  static constexpr std::size_t kSlack = 0;
+  static void run(const BoidsLanesInput& in, std::uint32_t b, std::uint32_t e, float* const a[6], std::size_t at) {
+    const float* from[6] = {in.x, in.y, in.z, in.ux.data(), in.uy.data(), in.uz.data()};
+    for (int c = 0; c < 6; ++c) std::copy(from[c] + b, from[c] + e, a[c] + at);
+  }
+};
+
+// the sums of one agent over eight candidates at index e of the arrays, into acc (the zones' terms, kernel header)
+template <typename L>
+inline void addEight(const Candidates& c, std::size_t e, const typename L::V q[6], const BoidsZones& z,
+                     typename L::V acc[9]) {
   using V = typename L::V;
-  const V r3sq = L::set1(z.r3sq), zero = L::set1(0.0f);
-  const float* px = in.x;
-  const float* py = in.y;
-  const float* pz = in.z;
-  const std::uint32_t* chunkStart = h.chunkStart.data();
-  const std::uint32_t* chunkLive = h.chunkLive.data();
-  const float* masks = rangeMasks();
-  std::uint32_t* hit = h.hits.data();
-  const std::size_t room = h.hits.size() - 2 * kLanes;
+  const V zero = L::set1(0.0f);
+  const V dx = L::sub(L::load(c.x + e), q[0]), dy = L::sub(L::load(c.y + e), q[1]), dz = L::sub(L::load(c.z + e), q[2]);
+  const V d2 = L::add(L::add(L::mul(dx, dx), L::mul(dy, dy)), L::mul(dz, dz));
+  const V hit = L::band(L::le(d2, L::set1(z.r3sq)), L::gt(d2, zero));
+  if (L::mask(hit) == 0) return;  // (adding zeros would change no sum: they never hold -0)
+  const V inv = L::div(L::set1(1.0f), L::sqrt(L::max(d2, L::set1(kTiny))));
+  const V ex = L::mul(dx, inv), ey = L::mul(dy, inv), ez = L::mul(dz, inv);
+  const V rep = L::band(hit, L::le(d2, L::set1(z.r1sq)));
+  const V nearer = L::le(d2, L::set1(z.r2sq));
+  const V ali = L::andnot(rep, L::band(hit, nearer));
+  const V dot = L::add(L::add(L::mul(q[3], ex), L::mul(q[4], ey)), L::mul(q[5], ez));
+  const V att = L::band(L::andnot(nearer, hit), L::le(L::set1(z.cosHalfFov), dot));
+  acc[0] = L::add(acc[0], L::band(rep, ex));
+  acc[1] = L::add(acc[1], L::band(rep, ey));
+  acc[2] = L::add(acc[2], L::band(rep, ez));
+  acc[3] = L::add(acc[3], L::band(ali, L::load(c.ux + e)));
+  acc[4] = L::add(acc[4], L::band(ali, L::load(c.uy + e)));
+  acc[5] = L::add(acc[5], L::band(ali, L::load(c.uz + e)));
+  acc[6] = L::add(acc[6], L::band(att, ex));
+  acc[7] = L::add(acc[7], L::band(att, ey));
+  acc[8] = L::add(acc[8], L::band(att, ez));
+}
+
+// every agent of the cell on eight lanes: lanes 0-7 and 8-15 of each sixteen in two sums, added at the end
+template <typename L>
+inline void boidsLanes(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_t a1, const Candidates& c,
+                       const BoidsZones& z, std::array<float, 9>* out) {
+  using V = typename L::V;
   for (std::uint32_t k = a0; k < a1; ++k) {
-    const V q[6] = {L::set1(px[k]), L::set1(py[k]), L::set1(pz[k]),
+    const V q[6] = {L::set1(in.x[k]),  L::set1(in.y[k]),  L::set1(in.z[k]),
                     L::set1(in.ux[k]), L::set1(in.uy[k]), L::set1(in.uz[k])};
-    V acc[9];
-    for (V& a : acc) a = zero;
-    std::size_t m = 0;
-    // one loop over the cell's chunks (the same trip count for every agent of the cell), no branch on the
-    // hits: a chunk without any packs nothing
-    for (std::size_t c = 0; c < nChunks; ++c) {
-      const std::uint32_t j = chunkStart[c];
-      const V live = L::load(masks + chunkLive[c]);  // the lanes in the run
-      const V dx = L::sub(L::load(px + j), q[0]), dy = L::sub(L::load(py + j), q[1]);
-      const V dz = L::sub(L::load(pz + j), q[2]);
-      const V d2 = L::add(L::add(L::mul(dx, dx), L::mul(dy, dy)), L::mul(dz, dz));
-      m += packSetLanes<kAvx2>(j, L::mask(L::band(live, L::band(L::le(d2, r3sq), L::gt(d2, zero)))), hit + m);
-      if (m >= room) {  // full: sum the whole groups, keep the rest at the start
-        const std::size_t whole = m / kLanes * kLanes;
-        addHits<L, kAvx2>(in, hit, whole, q, z, acc);
-        std::copy(hit + whole, hit + m, hit);
-        m -= whole;
-      }
+    V lo[9], hi[9];
+    for (int a = 0; a < 9; ++a) lo[a] = hi[a] = L::set1(0.0f);
+    for (std::size_t e = 0; e < c.room; e += kBlock) {
+      addEight<L>(c, e, q, z, lo);
+      addEight<L>(c, e + kLanes, q, z, hi);
     }
-    addHits<L, kAvx2>(in, hit, m, q, z, acc);
-    for (int c = 0; c < 9; ++c) out[k - a0][c] = treeSum<L>(acc[c]);
+    for (int a = 0; a < 9; ++a) out[k - a0][static_cast<std::size_t>(a)] = treeSum<L>(L::add(lo[a], hi[a]));
   }
 }
 
 #if SWARMSIM_X86_LANES
-#define SWARMSIM_BOIDS_ARGS                                                                               \
-  const BoidsLanesInput &in, std::uint32_t a0, std::uint32_t a1, std::size_t nChunks, const BoidsZones &z, \
-      BoidsScratch &h, std::array<float, 9> *out
+// eight floats at a time by masked loads (none read past e), whole stores into the arrays' slack
+struct CopyAvx {
+  static constexpr std::size_t kSlack = 8;
+  SWARMSIM_AVX static void run(const BoidsLanesInput& in, std::uint32_t b, std::uint32_t e, float* const a[6],
+                               std::size_t at) {
+    const float* from[6] = {in.x, in.y, in.z, in.ux.data(), in.uy.data(), in.uz.data()};
+    const __m256 laneIndex = _mm256_load_ps(kLaneIndex);
+    for (std::uint32_t j = b; j < e; j += 8) {
+      const __m256i live =
+          _mm256_castps_si256(_mm256_cmp_ps(laneIndex, _mm256_set1_ps(static_cast<float>(e - j)), _CMP_LT_OQ));
+      for (int c = 0; c < 6; ++c) _mm256_storeu_ps(a[c] + at + (j - b), _mm256_maskload_ps(from[c] + j, live));
+    }
+  }
+};
+// sixteen at a time by masked loads
+struct CopyAvx512 {
+  static constexpr std::size_t kSlack = 16;
+  SWARMSIM_AVX512 static void run(const BoidsLanesInput& in, std::uint32_t b, std::uint32_t e, float* const a[6],
+                                  std::size_t at) {
+    const float* from[6] = {in.x, in.y, in.z, in.ux.data(), in.uy.data(), in.uz.data()};
+    for (std::uint32_t j = b; j < e; j += 16) {
+      const auto live = static_cast<__mmask16>(e - j >= 16 ? 0xffffu : (1u << (e - j)) - 1u);
+      for (int c = 0; c < 6; ++c) _mm512_storeu_ps(a[c] + at + (j - b), _mm512_maskz_loadu_ps(live, from[c] + j));
+    }
+  }
+};
+
+// boidsLanes on sixteen lanes: each operation as the eight-lane kernel does it per lane; the neighbour terms by
+// masked additions (a lane left out keeps its sum, as adding the eight-lane kernel's zero does)
+SWARMSIM_AVX512 __attribute__((flatten)) void boidsAvx512(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_t a1,
+                                                          const Candidates& c, const BoidsZones& z,
+                                                          std::array<float, 9>* out) {
+  const __m512 r1 = _mm512_set1_ps(z.r1sq), r2 = _mm512_set1_ps(z.r2sq), r3 = _mm512_set1_ps(z.r3sq);
+  const __m512 cosFov = _mm512_set1_ps(z.cosHalfFov), zero = _mm512_setzero_ps(), one = _mm512_set1_ps(1.0f);
+  const __m512 tiny = _mm512_set1_ps(kTiny);
+  for (std::uint32_t k = a0; k < a1; ++k) {
+    const __m512 qx = _mm512_set1_ps(in.x[k]), qy = _mm512_set1_ps(in.y[k]), qz = _mm512_set1_ps(in.z[k]);
+    const __m512 ux = _mm512_set1_ps(in.ux[k]), uy = _mm512_set1_ps(in.uy[k]), uz = _mm512_set1_ps(in.uz[k]);
+    __m512 acc[9];
+    for (__m512& a : acc) a = zero;
+    for (std::size_t e = 0; e < c.room; e += kBlock) {
+      const __m512 dx = _mm512_sub_ps(_mm512_loadu_ps(c.x + e), qx);
+      const __m512 dy = _mm512_sub_ps(_mm512_loadu_ps(c.y + e), qy);
+      const __m512 dz = _mm512_sub_ps(_mm512_loadu_ps(c.z + e), qz);
+      const __m512 d2 =
+          _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)), _mm512_mul_ps(dz, dz));
+      const __mmask16 hit = _mm512_mask_cmp_ps_mask(_mm512_cmp_ps_mask(d2, r3, _CMP_LE_OQ), d2, zero, _CMP_GT_OQ);
+      if (hit == 0) continue;
+      const __m512 inv = _mm512_div_ps(one, _mm512_maskz_sqrt_ps(0xffff, _mm512_maskz_max_ps(0xffff, d2, tiny)));
+      const __m512 ex = _mm512_mul_ps(dx, inv), ey = _mm512_mul_ps(dy, inv), ez = _mm512_mul_ps(dz, inv);
+      const __mmask16 rep = _mm512_mask_cmp_ps_mask(hit, d2, r1, _CMP_LE_OQ);
+      const __mmask16 nearer = _mm512_mask_cmp_ps_mask(hit, d2, r2, _CMP_LE_OQ);
+      const auto ali = static_cast<__mmask16>(nearer & ~rep);
+      const __m512 dot =
+          _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(ux, ex), _mm512_mul_ps(uy, ey)), _mm512_mul_ps(uz, ez));
+      const __mmask16 att = _mm512_mask_cmp_ps_mask(static_cast<__mmask16>(hit & ~nearer), cosFov, dot, _CMP_LE_OQ);
+      acc[0] = _mm512_mask_add_ps(acc[0], rep, acc[0], ex);
+      acc[1] = _mm512_mask_add_ps(acc[1], rep, acc[1], ey);
+      acc[2] = _mm512_mask_add_ps(acc[2], rep, acc[2], ez);
+      acc[3] = _mm512_mask_add_ps(acc[3], ali, acc[3], _mm512_loadu_ps(c.ux + e));
+      acc[4] = _mm512_mask_add_ps(acc[4], ali, acc[4], _mm512_loadu_ps(c.uy + e));
+      acc[5] = _mm512_mask_add_ps(acc[5], ali, acc[5], _mm512_loadu_ps(c.uz + e));
+      acc[6] = _mm512_mask_add_ps(acc[6], att, acc[6], ex);
+      acc[7] = _mm512_mask_add_ps(acc[7], att, acc[7], ey);
+      acc[8] = _mm512_mask_add_ps(acc[8], att, acc[8], ez);
+    }
+    // lanes l and l + 8 added, then the eight lanes' tree (treeSum's order)
+    for (int a = 0; a < 9; ++a) {
+      const __m256d lo = _mm512_maskz_extractf64x4_pd(0xf, _mm512_castps_pd(acc[a]), 0);
+      const __m256d hi = _mm512_maskz_extractf64x4_pd(0xf, _mm512_castps_pd(acc[a]), 1);
+      const __m256 eight = _mm256_add_ps(_mm256_castpd_ps(lo), _mm256_castpd_ps(hi));
+      out[k - a0][static_cast<std::size_t>(a)] = treeSum<AvxLanes>(AvxLanes::V{eight});
+    }
+  }
+}
+
+#define SWARMSIM_BOIDS_ARGS                                                                                    \
+  const BoidsLanesInput &in, std::uint32_t a0, std::uint32_t a1, const std::uint32_t *runs, std::size_t nRuns, \
+      const BoidsZones &z, BoidsScratch &h, std::array<float, 9>*out
 __attribute__((flatten)) void boidsSse(SWARMSIM_BOIDS_ARGS) {
-  boidsLanes<SseLanes, false>(in, a0, a1, nChunks, z, h, out);
+  boidsLanes<SseLanes>(in, a0, a1, gatherCandidates<CopyPlain>(in, runs, nRuns, h.candidates), z, out);
 }
 SWARMSIM_AVX __attribute__((flatten)) void boidsAvx(SWARMSIM_BOIDS_ARGS) {
-  boidsLanes<AvxLanes, false>(in, a0, a1, nChunks, z, h, out);
+  boidsLanes<AvxLanes>(in, a0, a1, gatherCandidates<CopyAvx>(in, runs, nRuns, h.candidates), z, out);
 }
-SWARMSIM_AVX2 __attribute__((flatten)) void boidsAvx2(SWARMSIM_BOIDS_ARGS) {
-  boidsLanes<AvxLanes, true>(in, a0, a1, nChunks, z, h, out);
+SWARMSIM_AVX512 __attribute__((flatten)) void boidsAvx512Cell(SWARMSIM_BOIDS_ARGS) {
+  boidsAvx512(in, a0, a1, gatherCandidates<CopyAvx512>(in, runs, nRuns, h.candidates), z, out);
 }
 #undef SWARMSIM_BOIDS_ARGS
 #endif
@@ -160,69 +198,31 @@ void BoidsLanesInput::prepare(const float* px, const float* py, const float* pz,
   x = px;
   y = py;
   z = pz;
-  if (n < kLanes) {  // too few to shift a chunk back inside them: padded copies
-    for (auto* a : {&tx_, &ty_, &tz_}) a->assign(kLanes + kPad, 0.0f);
-    std::copy(px, px + n, tx_.begin());
-    std::copy(py, py + n, ty_.begin());
-    std::copy(pz, pz + n, tz_.begin());
-    x = tx_.data();
-    y = ty_.data();
-    z = tz_.data();
-  }
   for (auto* a : {&ux, &uy, &uz}) {
     a->resize(n + kPad);
     std::fill(a->begin() + static_cast<std::ptrdiff_t>(n), a->end(), 0.0f);
   }
 }
 
-BoidsScratch::BoidsScratch() {
-  hits.resize(kRoom);
-  chunkStart.resize(64);
-  chunkLive.resize(64);
-}
-
 void boidsCellSums(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_t a1, const std::uint32_t* runs,
                    std::size_t nRuns, const BoidsZones& zones, LaneSet lanes, BoidsScratch& scratch,
                    std::array<float, 9>* out) {
-  static_assert(BoidsLanesInput::kPad >= kLanes, "the hits' gathers may read the unit velocities' padding");
   if (a0 == a1) return;
-  // the rows cut into chunks of up to eight
-  std::size_t most = 0;
-  for (std::size_t r = 0; r < nRuns; ++r) most += (runs[2 * r + 1] - runs[2 * r] + kLanes - 1) / kLanes;
-  if (scratch.chunkStart.size() < most) {
-    scratch.chunkStart.resize(2 * most);
-    scratch.chunkLive.resize(2 * most);
-  }
-  std::uint32_t* start = scratch.chunkStart.data();
-  std::uint32_t* live = scratch.chunkLive.data();
-  // a chunk loads eight positions from its start: one that would read past the last agent starts earlier (by
-  // `back` lanes), its run's lanes then [back, back + size); fewer than eight agents are padded (prepare)
-  const std::size_t last = std::max<std::size_t>(in.n, kLanes) - kLanes;
-  std::size_t nChunks = 0;
-  for (std::size_t r = 0; r < nRuns; ++r) {
-    const std::uint32_t b = runs[2 * r], e = runs[2 * r + 1];
-    for (std::uint32_t j = b; j < e; j += kLanes, ++nChunks) {
-      const std::uint32_t back = j > last ? static_cast<std::uint32_t>(j - last) : 0u;
-      const std::uint32_t end = back + std::min<std::uint32_t>(e - j, kLanes);
-      start[nChunks] = j - back;
-      live[nChunks] = rangeMask(back, end);
-    }
-  }
 #if SWARMSIM_X86_LANES
   switch (lanes) {
-    case LaneSet::kAvx2:
-    case LaneSet::kAvx512:  // (no AVX-512 variant: sixteen lanes measured no faster, docs/performance.md)
-      boidsAvx2(in, a0, a1, nChunks, zones, scratch, out);
+    case LaneSet::kAvx512:
+      boidsAvx512Cell(in, a0, a1, runs, nRuns, zones, scratch, out);
       break;
+    case LaneSet::kAvx2:
     case LaneSet::kAvx:
-      boidsAvx(in, a0, a1, nChunks, zones, scratch, out);
+      boidsAvx(in, a0, a1, runs, nRuns, zones, scratch, out);
       break;
     default:
-      boidsSse(in, a0, a1, nChunks, zones, scratch, out);
+      boidsSse(in, a0, a1, runs, nRuns, zones, scratch, out);
   }
 #else
   (void)lanes;
-  boidsLanes<ScalarLanes, false>(in, a0, a1, nChunks, zones, scratch, out);
+  boidsLanes<ScalarLanes>(in, a0, a1, gatherCandidates<CopyPlain>(in, runs, nRuns, scratch.candidates), zones, out);
 #endif
 }
 
