@@ -146,7 +146,7 @@ TEST_CASE("boids update: the lanes give the equations' velocities, with the same
   std::mt19937 rng(5);
   std::uniform_real_distribution<float> pos(-0.5f, 10.5f), unit(-1.0f, 1.0f), sum(-4.0f, 4.0f), draw(0.0f, 1.0f);
   const std::size_t n = 1003;  // (a last block of three)
-  std::vector<float> x[3], u[3], v[3], jitter(4 * n);
+  std::vector<float> x[3], u[3], v[3], jitter(4 * n);  // (four uniforms of agent i at 4 i)
   std::vector<std::array<float, 9>> sums(n);
   for (std::size_t i = 0; i < n; ++i) {
     for (int a = 0; a < 3; ++a) {
@@ -173,17 +173,13 @@ TEST_CASE("boids update: the lanes give the equations' velocities, with the same
   jitter[4 * 3] = 0.0f;
   const auto run = [&](LaneSet set, std::vector<float> out[3], bool withJitter) {
     for (int a = 0; a < 3; ++a) out[a] = v[a];
-    const BoidsUpdateRow row = {x[0].data(),
-                                x[1].data(),
-                                x[2].data(),
-                                u[0].data(),
-                                u[1].data(),
-                                u[2].data(),
-                                out[0].data(),
-                                out[1].data(),
-                                out[2].data(),
-                                sums.data(),
-                                withJitter ? jitter.data() : nullptr};
+    std::vector<float> draws[4];
+    for (std::size_t w = 0; w < 4; ++w) {
+      for (std::size_t i = 0; i < n; ++i) draws[w].push_back(jitter[4 * i + w]);
+    }
+    BoidsUpdateRow row = {x[0].data(),   x[1].data(),   x[2].data(),   u[0].data(), u[1].data(), u[2].data(),
+                          out[0].data(), out[1].data(), out[2].data(), sums.data(), {}};
+    for (std::size_t w = 0; w < 4; ++w) row.jitter[w] = withJitter ? draws[w].data() : nullptr;
     boidsUpdate(row, n, p, set);
   };
   for (const bool withJitter : {true, false}) {

@@ -1,15 +1,20 @@
 // Philox4x32-10 known answers and the AgentRng streams built on it.
+#include "core/rng.hpp"
+
 #include <array>
+#include <catch2/catch.hpp>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <random>
 #include <set>
 #include <vector>
 
-#include <catch2/catch.hpp>
-
-#include "core/rng.hpp"
+#include "core/rng_lanes.hpp"
+#include "lane_sets.hpp"
 
 using swarmsim::AgentRng;
+using swarmsim::LaneSet;
 using swarmsim::philox4x32;
 using swarmsim::RngPurpose;
 using Words = std::array<std::uint32_t, 4>;
@@ -185,5 +190,35 @@ TEST_CASE("AgentRng streams are reproducible and independent", "[rng]") {
     std::set<std::vector<float>> seen;
     for (std::uint32_t a = 0; a < 5000; ++a) seen.insert(uniforms(AgentRng(1, 0, a, RngPurpose::kJitter, 0), 2));
     CHECK(seen.size() == 5000u);
+  }
+}
+
+TEST_CASE("firstUniforms gives AgentRng's first four uniforms of every agent on every lane set", "[rng][lanes]") {
+  std::mt19937 gen(3);
+  std::vector<std::uint32_t> ids;
+  for (int i = 0; i < 1000; ++i) ids.push_back(static_cast<std::uint32_t>(gen()));
+  ids[0] = 0;
+  ids[1] = 0xffffffffu;
+  for (const std::uint64_t seed : {std::uint64_t{0}, std::uint64_t{12345}, std::uint64_t{0xfedcba9876543210ull}}) {
+    for (const std::uint64_t step : {std::uint64_t{0}, std::uint64_t{77}, std::uint64_t{0x1'0000'0005ull}}) {
+      for (const std::size_t m : {std::size_t{0}, std::size_t{5}, std::size_t{17}, std::size_t{1000}}) {
+        std::vector<float> want[4];
+        for (std::size_t i = 0; i < m; ++i) {
+          AgentRng rng(seed, step, ids[i], RngPurpose::kJitter, 3);
+          for (auto& w : want) w.push_back(rng.uniform());
+        }
+        for (const LaneSet set : swarmsim_test::laneSetsOfThisCpu()) {
+          std::vector<float> got[4];
+          float* out[4];
+          for (int w = 0; w < 4; ++w) {
+            got[w].assign(m, -1.0f);
+            out[w] = got[w].data();
+          }
+          swarmsim::firstUniforms(seed, step, ids.data(), m, RngPurpose::kJitter, 3, out, set);
+          INFO("seed " << seed << ", step " << step << ", " << m << " agents, lane set " << static_cast<int>(set));
+          for (int w = 0; w < 4; ++w) CHECK(std::memcmp(got[w].data(), want[w].data(), m * sizeof(float)) == 0);
+        }
+      }
+    }
   }
 }

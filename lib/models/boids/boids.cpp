@@ -8,6 +8,7 @@
 #include "core/lanes.hpp"
 #include "core/parallel.hpp"
 #include "core/rng.hpp"
+#include "core/rng_lanes.hpp"
 #include "models/boids/boids_kernel.hpp"
 #include "models/boids/boids_update.hpp"
 #include "spatial/uniform_grid.hpp"
@@ -100,12 +101,11 @@ class Boids final : public Model {
         boidsCellSums(lanes_, a0, a1, runs, nRuns, zones, laneKind, scratch, scratch.sums.data() + (a0 - first));
       });
       // the jitter's four uniforms of each agent, from its own stream (by id: the same draw on any thread)
+      float* draws[4] = {nullptr, nullptr, nullptr, nullptr};
       if (jitter) {
         if (scratch.jitter.size() < 4 * m) scratch.jitter.resize(8 * m);
-        for (std::size_t i = 0; i < m; ++i) {
-          AgentRng rng(seed, stepIndex, s.id[first + i], RngPurpose::kJitter, swarmIndex);
-          for (std::size_t w = 0; w < 4; ++w) scratch.jitter[4 * i + w] = rng.uniform();
-        }
+        for (std::size_t w = 0; w < 4; ++w) draws[w] = scratch.jitter.data() + w * m;
+        firstUniforms(seed, stepIndex, s.id.data() + first, m, RngPurpose::kJitter, swarmIndex, draws, laneKind);
       }
       const BoidsUpdateRow r = {s.px.data() + first,
                                 s.py.data() + first,
@@ -117,7 +117,7 @@ class Boids final : public Model {
                                 s.vy.data() + first,
                                 s.vz.data() + first,
                                 scratch.sums.data(),
-                                jitter ? scratch.jitter.data() : nullptr};
+                                {draws[0], draws[1], draws[2], draws[3]}};
       boidsUpdate(r, m, up, laneKind);
     };
     // each agent's work is a whole neighbourhood scan: worth the team from a few hundred agents on

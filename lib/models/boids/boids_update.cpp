@@ -22,11 +22,10 @@ inline void fillBlock(const BoidsUpdateRow& r, std::size_t first, std::size_t m,
     for (int q = 0; q < 9; ++q) b.in[q][l] = arrays[q][i];
     for (int q = 0; q < 9; ++q) b.in[9 + q][l] = r.sums[i][static_cast<std::size_t>(q)];
     if (jitter) {
-      const float* j = r.jitter + 4 * i;
-      b.in[18][l] = 1.0f - j[0];
-      b.in[19][l] = j[1];
-      b.in[20][l] = 1.0f - j[2];
-      b.in[21][l] = j[3];
+      b.in[18][l] = 1.0f - r.jitter[0][i];
+      b.in[19][l] = r.jitter[1][i];
+      b.in[20][l] = 1.0f - r.jitter[2][i];
+      b.in[21][l] = r.jitter[3][i];
     }
   }
 }
@@ -99,7 +98,7 @@ inline void updateEight(const Block& b, const BoidsUpdateParams& p, bool jitter,
 
 template <typename L>
 inline void updateRow(const BoidsUpdateRow& r, std::size_t m, const BoidsUpdateParams& p) {
-  const bool jitter = r.jitter != nullptr;
+  const bool jitter = r.jitter[0] != nullptr;
   Block b;
   alignas(32) float out[3][kLanes];
   for (std::size_t first = 0; first < m; first += kLanes) {
