@@ -60,7 +60,7 @@ std::vector<std::array<float, 9>> kernelSums(const Cloud& c, const BoidsZones& z
   }
   std::vector<std::array<float, 9>> out(n);
   BoidsScratch scratch;
-  std::vector<std::array<float, 9>> cell;
+  std::vector<float> cell[9];
   std::size_t cells = 0;
   CellBlock block;
   for (std::size_t row = 0; row < grid.rowCount(); ++row) {
@@ -74,9 +74,14 @@ std::vector<std::array<float, 9>> kernelSums(const Cloud& c, const BoidsZones& z
         for (std::uint32_t k = runs[2 * i]; k < runs[2 * i + 1]; ++k) got.push_back(k);
       }
       CHECK(got == std::vector<std::uint32_t>(block.index.begin(), block.index.begin() + static_cast<std::ptrdiff_t>(block.size)));
-      cell.assign(a1 - a0, std::array<float, 9>{});
-      boidsCellSums(in, a0, a1, runs, nRuns, zones, lanes, scratch, cell.data());
-      for (std::uint32_t k = a0; k < a1; ++k) out[k] = cell[k - a0];
+      // (arrays of exactly the cell's agents: a write past them is a fault under the address sanitizer)
+      for (auto& a : cell) a.assign(a1 - a0, 0.0f);
+      float* const at[9] = {cell[0].data(), cell[1].data(), cell[2].data(), cell[3].data(), cell[4].data(),
+                            cell[5].data(), cell[6].data(), cell[7].data(), cell[8].data()};
+      boidsCellSums(in, a0, a1, runs, nRuns, zones, lanes, scratch, at);
+      for (std::uint32_t k = a0; k < a1; ++k) {
+        for (std::size_t a = 0; a < 9; ++a) out[k][a] = cell[a][k - a0];
+      }
       cells += 1;
     });
   }

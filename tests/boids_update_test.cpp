@@ -177,8 +177,13 @@ TEST_CASE("boids update: the lanes give the equations' velocities, with the same
     for (std::size_t w = 0; w < 4; ++w) {
       for (std::size_t i = 0; i < n; ++i) draws[w].push_back(jitter[4 * i + w]);
     }
+    std::vector<float> bySum[9];
+    for (std::size_t a = 0; a < 9; ++a) {
+      for (std::size_t i = 0; i < n; ++i) bySum[a].push_back(sums[i][a]);
+    }
     BoidsUpdateRow row = {x[0].data(),   x[1].data(),   x[2].data(),   u[0].data(), u[1].data(), u[2].data(),
-                          out[0].data(), out[1].data(), out[2].data(), sums.data(), {}};
+                          out[0].data(), out[1].data(), out[2].data(), {},          {}};
+    for (std::size_t a = 0; a < 9; ++a) row.sums[a] = bySum[a].data();
     for (std::size_t w = 0; w < 4; ++w) row.jitter[w] = withJitter ? draws[w].data() : nullptr;
     boidsUpdate(row, n, p, set);
   };

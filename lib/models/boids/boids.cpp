@@ -95,10 +95,15 @@ class Boids final : public Model {
       const std::uint32_t first = grid_.cellBegin(rowIndex * nx), last = grid_.cellEnd(rowIndex * nx + nx - 1);
       if (first == last) return;
       const std::size_t m = last - first;
-      if (scratch.sums.size() < m) scratch.sums.resize(2 * m);
+      if (scratch.sums.size() < 9 * m) scratch.sums.resize(18 * m);
+      float* sums[9];
+      for (std::size_t a = 0; a < 9; ++a) sums[a] = scratch.sums.data() + a * m;
       grid_.forEachCellOfRow(rowIndex, r3_, scratch.runs, [&](std::size_t c, const std::uint32_t* runs, std::size_t nRuns) {
         const std::uint32_t a0 = grid_.cellBegin(c), a1 = grid_.cellEnd(c);
-        boidsCellSums(lanes_, a0, a1, runs, nRuns, zones, laneKind, scratch, scratch.sums.data() + (a0 - first));
+        float* const at[9] = {sums[0] + (a0 - first), sums[1] + (a0 - first), sums[2] + (a0 - first),
+                              sums[3] + (a0 - first), sums[4] + (a0 - first), sums[5] + (a0 - first),
+                              sums[6] + (a0 - first), sums[7] + (a0 - first), sums[8] + (a0 - first)};
+        boidsCellSums(lanes_, a0, a1, runs, nRuns, zones, laneKind, scratch, at);
       });
       // the jitter's four uniforms of each agent, from its own stream (by id: the same draw on any thread)
       float* draws[4] = {nullptr, nullptr, nullptr, nullptr};
@@ -116,7 +121,7 @@ class Boids final : public Model {
                                 s.vx.data() + first,
                                 s.vy.data() + first,
                                 s.vz.data() + first,
-                                scratch.sums.data(),
+                                {sums[0], sums[1], sums[2], sums[3], sums[4], sums[5], sums[6], sums[7], sums[8]},
                                 {draws[0], draws[1], draws[2], draws[3]}};
       boidsUpdate(r, m, up, laneKind);
     };

@@ -84,7 +84,7 @@ inline void addEight(const Candidates& c, std::size_t e, const typename L::V q[6
 // every agent of the cell on eight lanes: lanes 0-7 and 8-15 of each sixteen in two sums, added at the end
 template <typename L>
 inline void boidsLanes(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_t a1, const Candidates& c,
-                       const BoidsZones& z, std::array<float, 9>* out) {
+                       const BoidsZones& z, float* const out[9]) {
   using V = typename L::V;
   for (std::uint32_t k = a0; k < a1; ++k) {
     const V q[6] = {L::set1(in.x[k]),  L::set1(in.y[k]),  L::set1(in.z[k]),
@@ -95,7 +95,7 @@ inline void boidsLanes(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_
       addEight<L>(c, e, q, z, lo);
       addEight<L>(c, e + kLanes, q, z, hi);
     }
-    for (int a = 0; a < 9; ++a) out[k - a0][static_cast<std::size_t>(a)] = treeSum<L>(L::add(lo[a], hi[a]));
+    for (int a = 0; a < 9; ++a) out[a][k - a0] = treeSum<L>(L::add(lo[a], hi[a]));
   }
 }
 
@@ -133,7 +133,7 @@ struct CopyAvx512 {
 // than the sixteen's work
 SWARMSIM_AVX512 __attribute__((flatten)) void boidsAvx512(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_t a1,
                                                           const Candidates& c, const BoidsZones& z,
-                                                          std::array<float, 9>* out) {
+                                                          float* const out[9]) {
   const __m512 r1 = _mm512_set1_ps(z.r1sq), r2 = _mm512_set1_ps(z.r2sq), r3 = _mm512_set1_ps(z.r3sq);
   const __m512 cosFov = _mm512_set1_ps(z.cosHalfFov), zero = _mm512_setzero_ps(), one = _mm512_set1_ps(1.0f);
   const __m512 tiny = _mm512_set1_ps(kTiny);
@@ -172,14 +172,14 @@ SWARMSIM_AVX512 __attribute__((flatten)) void boidsAvx512(const BoidsLanesInput&
       const __m256d lo = _mm512_maskz_extractf64x4_pd(0xf, _mm512_castps_pd(acc[a]), 0);
       const __m256d hi = _mm512_maskz_extractf64x4_pd(0xf, _mm512_castps_pd(acc[a]), 1);
       const __m256 eight = _mm256_add_ps(_mm256_castpd_ps(lo), _mm256_castpd_ps(hi));
-      out[k - a0][static_cast<std::size_t>(a)] = treeSum<AvxLanes>(AvxLanes::V{eight});
+      out[a][k - a0] = treeSum<AvxLanes>(AvxLanes::V{eight});
     }
   }
 }
 
 #define SWARMSIM_BOIDS_ARGS                                                                                    \
   const BoidsLanesInput &in, std::uint32_t a0, std::uint32_t a1, const std::uint32_t *runs, std::size_t nRuns, \
-      const BoidsZones &z, BoidsScratch &h, std::array<float, 9>*out
+      const BoidsZones &z, BoidsScratch &h, float *const out[9]
 __attribute__((flatten)) void boidsSse(SWARMSIM_BOIDS_ARGS) {
   boidsLanes<SseLanes>(in, a0, a1, gatherCandidates<CopyPlain>(in, runs, nRuns, h.candidates), z, out);
 }
@@ -207,7 +207,7 @@ void BoidsLanesInput::prepare(const float* px, const float* py, const float* pz,
 
 void boidsCellSums(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_t a1, const std::uint32_t* runs,
                    std::size_t nRuns, const BoidsZones& zones, LaneSet lanes, BoidsScratch& scratch,
-                   std::array<float, 9>* out) {
+                   float* const out[9]) {
   if (a0 == a1) return;
 #if SWARMSIM_X86_LANES
   switch (lanes) {

@@ -44,18 +44,18 @@ struct BoidsZones {
 struct BoidsScratch {
   std::vector<std::uint32_t> runs;         // a row's cells' runs (UniformGrid::forEachCellOfRow)
   std::vector<float> candidates;           // the cell's candidates, copied from its runs
-  std::vector<std::array<float, 9>> sums;  // the model's: boidsCellSums' output for one row of cells
+  std::vector<float> sums;                 // the model's: boidsCellSums' output for one row of cells (9 arrays)
   std::vector<float> jitter;               // the model's: four uniforms per agent of the row
 };
 
 // for each agent k of a grid cell (sorted positions a0..a1-1) whose neighbourhood rows are the runs
 // [runs[2 i], runs[2 i + 1]) (i < nRuns: UniformGrid::forEachCellOfRow), sums over the agents j != k within R3
-// (d = p_j − p_k, d̂ = d / |d|, coincident agents skipped), into out[k − a0][0..8]: Σ d̂ over |d| <= R1
+// (d = p_j − p_k, d̂ = d / |d|, coincident agents skipped), into out[0..8][k − a0]: Σ d̂ over |d| <= R1
 // (repulsion: the caller negates it), Σ û_j over R1 < |d| <= R2, Σ d̂ over R2 < |d| <= R3 with û_k · d̂ >=
 // cos(fov / 2), axis by axis. `lanes`: which instruction set (laneSet(); every one gives the same bits; kAvx2 runs the
 // AVX kernel: it needs no AVX2 instruction).
 void boidsCellSums(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_t a1, const std::uint32_t* runs,
                    std::size_t nRuns, const BoidsZones& zones, LaneSet lanes, BoidsScratch& scratch,
-                   std::array<float, 9>* out);
+                   float* const out[9]);
 
 }  // namespace swarmsim

@@ -6,33 +6,39 @@ namespace swarmsim {
 
 namespace {
 
-// eight agents' inputs, an array of eight lanes per quantity: p (0-2), u (3-5), v (6-8), the sums (9-17) and the
-// jitter's 1 − u0, u1, 1 − u2, u3 (18-21). A row's last agents fill lanes 0..m-1; the other lanes hold zeros,
-// and their results are not written.
+// the inputs of eight agents from index `first` on: p (0-2), u (3-5), v (6-8), the sums (9-17) and the jitter's
+// uniforms (18-21), each as eight floats in memory (the row's own arrays for a whole eight; for a row's last
+// agents, copies of them in `tail`, zeros in the lanes past them, whose results are not written)
 constexpr int kInputs = 22;
-struct Block {
+struct Inputs {
+  const float* in[kInputs];
+};
+struct Tail {
   alignas(32) float in[kInputs][kLanes];
 };
 
-inline void fillBlock(const BoidsUpdateRow& r, std::size_t first, std::size_t m, bool jitter, Block& b) {
-  for (auto& q : b.in) std::fill(q, q + kLanes, 0.0f);
-  const float* const arrays[9] = {r.px, r.py, r.pz, r.ux, r.uy, r.uz, r.vx, r.vy, r.vz};
-  for (std::size_t l = 0; l < m; ++l) {
-    const std::size_t i = first + l;
-    for (int q = 0; q < 9; ++q) b.in[q][l] = arrays[q][i];
-    for (int q = 0; q < 9; ++q) b.in[9 + q][l] = r.sums[i][static_cast<std::size_t>(q)];
-    if (jitter) {
-      b.in[18][l] = 1.0f - r.jitter[0][i];
-      b.in[19][l] = r.jitter[1][i];
-      b.in[20][l] = 1.0f - r.jitter[2][i];
-      b.in[21][l] = r.jitter[3][i];
+inline Inputs inputsAt(const BoidsUpdateRow& r, std::size_t first, std::size_t count, bool jitter, Tail& tail) {
+  const float* arrays[kInputs] = {r.px, r.py, r.pz, r.ux, r.uy, r.uz, r.vx, r.vy, r.vz};
+  for (int q = 0; q < 9; ++q) arrays[9 + q] = r.sums[q];
+  for (int q = 0; q < 4; ++q) arrays[18 + q] = jitter ? r.jitter[q] : nullptr;
+  Inputs b;
+  for (int q = 0; q < kInputs; ++q) {
+    if (!arrays[q]) {
+      b.in[q] = nullptr;
+    } else if (count == kLanes) {
+      b.in[q] = arrays[q] + first;
+    } else {
+      std::fill(tail.in[q], tail.in[q] + kLanes, 0.0f);
+      std::copy(arrays[q] + first, arrays[q] + first + count, tail.in[q]);
+      b.in[q] = tail.in[q];
     }
   }
+  return b;
 }
 
 // the new velocities of a block's eight agents, out[axis][lane]
 template <typename L>
-inline void updateEight(const Block& b, const BoidsUpdateParams& p, bool jitter, float out[3][kLanes]) {
+inline void updateEight(const Inputs& b, const BoidsUpdateParams& p, bool jitter, float out[3][kLanes]) {
   using V = typename L::V;
   const auto at = [&](int q) { return L::load(b.in[q]); };
   const V zero = L::set1(0.0f), one = L::set1(1.0f);
@@ -68,8 +74,8 @@ inline void updateEight(const Block& b, const BoidsUpdateParams& p, bool jitter,
   // the jitter: three standard normals (Box-Muller on two pairs of uniforms) times σ k
   if (jitter) {
     const V minus2 = L::set1(-2.0f);
-    const V r1 = L::sqrt(L::mul(minus2, logUnitLanes<L>(at(18))));
-    const V r2 = L::sqrt(L::mul(minus2, logUnitLanes<L>(at(20))));
+    const V r1 = L::sqrt(L::mul(minus2, logUnitLanes<L>(L::sub(one, at(18)))));
+    const V r2 = L::sqrt(L::mul(minus2, logUnitLanes<L>(L::sub(one, at(20)))));
     V c1, s1, c2, s2;
     cosSinTurnLanes<L>(at(19), c1, s1);
     cosSinTurnLanes<L>(at(21), c2, s2);
@@ -99,12 +105,12 @@ inline void updateEight(const Block& b, const BoidsUpdateParams& p, bool jitter,
 template <typename L>
 inline void updateRow(const BoidsUpdateRow& r, std::size_t m, const BoidsUpdateParams& p) {
   const bool jitter = r.jitter[0] != nullptr;
-  Block b;
+  Tail tail;
   alignas(32) float out[3][kLanes];
   for (std::size_t first = 0; first < m; first += kLanes) {
     const std::size_t count = std::min(kLanes, m - first);
-    fillBlock(r, first, count, jitter, b);
-    updateEight<L>(b, p, jitter, out);
+    updateEight<L>(inputsAt(r, first, count, jitter, tail), p, jitter, out);
+    // (after every read of the eight: v is read and written in place)
     for (std::size_t l = 0; l < count; ++l) {
       r.vx[first + l] = out[0][l];
       r.vy[first + l] = out[1][l];

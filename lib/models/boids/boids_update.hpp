@@ -23,14 +23,14 @@ struct BoidsUpdateParams {
 };
 
 // m agents, index i of each array: positions p, unit velocities u (the old heading), velocities v (read, then
-// written with the new ones), the neighbour sums (boidsCellSums: repulsion before its negation, alignment,
-// attraction), and, where `jitter` is given (not null), four uniforms per agent in [0, 1) from its random
+// written with the new ones), the neighbour sums sums[0..8][i] (boidsCellSums: repulsion before its negation,
+// alignment, attraction), and, where `jitter` is given (not null), four uniforms per agent in [0, 1) from its random
 // stream: jitter[0..3][i], the Box-Muller draws (1 − u0, u1) and (1 − u2, u3).
 struct BoidsUpdateRow {
   const float *px, *py, *pz;
   const float *ux, *uy, *uz;
   float *vx, *vy, *vz;
-  const std::array<float, 9>* sums;
+  const float* sums[9];
   const float* jitter[4];
 };
 void boidsUpdate(const BoidsUpdateRow& row, std::size_t m, const BoidsUpdateParams& p, LaneSet lanes);
