@@ -31,10 +31,11 @@ SWARMSIM_AVX512 std::size_t firstUniformsAvx512(std::uint64_t seed, std::uint64_
   const __m512i m0 = _mm512_set1_epi32(static_cast<int>(kM0)), m1 = _mm512_set1_epi32(static_cast<int>(kM1));
   const __m512 scale = _mm512_set1_ps(1.0f / 16777216.0f);
   std::size_t i = 0;
-  for (; i + 16 <= m; i += 16) {
+  for (; i < m; i += 16) {  // (the last agents by masked loads and stores)
+    const auto live = static_cast<__mmask16>(m - i >= 16 ? 0xffffu : (1u << (m - i)) - 1u);
     __m512i c0 = _mm512_set1_epi32(static_cast<int>(static_cast<std::uint32_t>(step)));
     __m512i c1 = _mm512_set1_epi32(static_cast<int>(static_cast<std::uint32_t>(step >> 32)));
-    __m512i c2 = _mm512_loadu_si512(ids + i);
+    __m512i c2 = _mm512_maskz_loadu_epi32(live, ids + i);
     __m512i c3 = _mm512_set1_epi32(static_cast<int>(word3));
     std::uint32_t k0 = static_cast<std::uint32_t>(seed), k1 = static_cast<std::uint32_t>(seed >> 32);
     for (int round = 0; round < 10; ++round) {
@@ -53,12 +54,12 @@ SWARMSIM_AVX512 std::size_t firstUniformsAvx512(std::uint64_t seed, std::uint64_
     const __m512i words[4] = {c0, c1, c2, c3};
     for (int w = 0; w < 4; ++w) {
       const __m512i top = _mm512_maskz_srli_epi32(0xffff, words[w], 8);  // (24 bits: converted exactly)
-      _mm512_storeu_ps(out[w] + i, _mm512_mul_ps(_mm512_maskz_cvtepi32_ps(0xffff, top), scale));
+      _mm512_mask_storeu_ps(out[w] + i, live, _mm512_mul_ps(_mm512_maskz_cvtepi32_ps(0xffff, top), scale));
     }
   }
-  return i;
+  return m;
 }
-// the same on eight lanes
+// the same on eight lanes (whole eights only)
 SWARMSIM_AVX2 inline void mulHiLo(__m256i a, __m256i m, __m256i& hi, __m256i& lo) {
   const __m256i even = _mm256_mul_epu32(a, m);
   const __m256i odd = _mm256_mul_epu32(_mm256_srli_epi64(a, 32), m);

@@ -8,7 +8,6 @@ namespace swarmsim {
 
 namespace {
 
-constexpr float kTiny = 1e-30f;  // floor of squared lengths: the lanes without a neighbour stay finite
 constexpr float kFar = 3.0e38f;  // the padding's coordinates: its squared distance to any agent is +inf
 constexpr std::size_t kBlock = 16;
 
@@ -63,7 +62,8 @@ inline void addEight(const Candidates& c, std::size_t e, const typename L::V q[6
   const V d2 = L::add(L::add(L::mul(dx, dx), L::mul(dy, dy)), L::mul(dz, dz));
   const V hit = L::band(L::le(d2, L::set1(z.r3sq)), L::gt(d2, zero));
   if (L::mask(hit) == 0) return;  // (adding zeros would change no sum: they never hold -0)
-  const V inv = L::div(L::set1(1.0f), L::sqrt(L::max(d2, L::set1(kTiny))));
+  // (1 / |d|: finite for every neighbour, d² > 0; inf or NaN in the lanes without one, which add nothing)
+  const V inv = L::div(L::set1(1.0f), L::sqrt(d2));
   const V ex = L::mul(dx, inv), ey = L::mul(dy, inv), ez = L::mul(dz, inv);
   const V rep = L::band(hit, L::le(d2, L::set1(z.r1sq)));
   const V nearer = L::le(d2, L::set1(z.r2sq));
@@ -136,7 +136,6 @@ SWARMSIM_AVX512 __attribute__((flatten)) void boidsAvx512(const BoidsLanesInput&
                                                           float* const out[9]) {
   const __m512 r1 = _mm512_set1_ps(z.r1sq), r2 = _mm512_set1_ps(z.r2sq), r3 = _mm512_set1_ps(z.r3sq);
   const __m512 cosFov = _mm512_set1_ps(z.cosHalfFov), zero = _mm512_setzero_ps(), one = _mm512_set1_ps(1.0f);
-  const __m512 tiny = _mm512_set1_ps(kTiny);
   for (std::uint32_t k = a0; k < a1; ++k) {
     const __m512 qx = _mm512_set1_ps(in.x[k]), qy = _mm512_set1_ps(in.y[k]), qz = _mm512_set1_ps(in.z[k]);
     const __m512 ux = _mm512_set1_ps(in.ux[k]), uy = _mm512_set1_ps(in.uy[k]), uz = _mm512_set1_ps(in.uz[k]);
@@ -149,7 +148,7 @@ SWARMSIM_AVX512 __attribute__((flatten)) void boidsAvx512(const BoidsLanesInput&
       const __m512 d2 =
           _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)), _mm512_mul_ps(dz, dz));
       const __mmask16 hit = _mm512_mask_cmp_ps_mask(_mm512_cmp_ps_mask(d2, r3, _CMP_LE_OQ), d2, zero, _CMP_GT_OQ);
-      const __m512 inv = _mm512_div_ps(one, _mm512_maskz_sqrt_ps(0xffff, _mm512_maskz_max_ps(0xffff, d2, tiny)));
+      const __m512 inv = _mm512_div_ps(one, _mm512_maskz_sqrt_ps(0xffff, d2));
       const __m512 ex = _mm512_mul_ps(dx, inv), ey = _mm512_mul_ps(dy, inv), ez = _mm512_mul_ps(dz, inv);
       const __mmask16 rep = _mm512_mask_cmp_ps_mask(hit, d2, r1, _CMP_LE_OQ);
       const __mmask16 nearer = _mm512_mask_cmp_ps_mask(hit, d2, r2, _CMP_LE_OQ);
