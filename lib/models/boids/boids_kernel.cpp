@@ -95,7 +95,12 @@ inline void boidsLanes(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_
       addEight<L>(c, e, q, z, lo);
       addEight<L>(c, e + kLanes, q, z, hi);
     }
-    for (int a = 0; a < 9; ++a) out[a][k - a0] = treeSum<L>(L::add(lo[a], hi[a]));
+    V eight[9];
+    for (int a = 0; a < 9; ++a) eight[a] = L::add(lo[a], hi[a]);
+    float sums[8];
+    treeSums8<L>(eight, sums);  // (treeSum of each: the same bits)
+    for (int a = 0; a < 8; ++a) out[a][k - a0] = sums[a];
+    out[8][k - a0] = treeSum<L>(eight[8]);
   }
 }
 
@@ -166,13 +171,17 @@ SWARMSIM_AVX512 __attribute__((flatten)) void boidsAvx512(const BoidsLanesInput&
       acc[7] = _mm512_mask_add_ps(acc[7], att, acc[7], ey);
       acc[8] = _mm512_mask_add_ps(acc[8], att, acc[8], ez);
     }
-    // lanes l and l + 8 added, then the eight lanes' tree (treeSum's order)
+    // lanes l and l + 8 added, then the eight lanes' tree (treeSum's order; eight of the sums at once)
+    AvxLanes::V eight[9];
     for (int a = 0; a < 9; ++a) {
       const __m256d lo = _mm512_maskz_extractf64x4_pd(0xf, _mm512_castps_pd(acc[a]), 0);
       const __m256d hi = _mm512_maskz_extractf64x4_pd(0xf, _mm512_castps_pd(acc[a]), 1);
-      const __m256 eight = _mm256_add_ps(_mm256_castpd_ps(lo), _mm256_castpd_ps(hi));
-      out[a][k - a0] = treeSum<AvxLanes>(AvxLanes::V{eight});
+      eight[a].a = _mm256_add_ps(_mm256_castpd_ps(lo), _mm256_castpd_ps(hi));
     }
+    float sums[8];
+    treeSums8<AvxLanes>(eight, sums);
+    for (int a = 0; a < 8; ++a) out[a][k - a0] = sums[a];
+    out[8][k - a0] = treeSum<AvxLanes>(eight[8]);
   }
 }
 
