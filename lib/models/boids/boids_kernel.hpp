@@ -7,9 +7,8 @@
 // sixteens with far points. Each agent of the cell tests them sixteen at a
 // time for neighbours within R3 and adds every neighbour's terms to nine sums
 // of sixteen lanes, candidate e in lane e % 16 (eight-lane sets keep lanes 0-7
-// and 8-15 as two sums; they skip an eight without a neighbour, which changes
-// no sum). At the end lanes l and l + 8 are added and the eight lanes summed
-// in a fixed tree. The result depends on the positions and velocities only, never on
+// and 8-15 as two sums). At the end lanes l and l + 8 are added and the eight
+// lanes summed in a fixed tree. The result depends on the positions and velocities only, never on
 // threads or the instruction set.
 #include <array>
 #include <cstdint>
