@@ -152,7 +152,7 @@ class Boids final : public Model {
     const std::size_t n = s.size();
     const auto& order = grid_.order();
     std::array<std::vector<float>*, 3> buf = {&lanes_.ux, &lanes_.uy, &lanes_.uz};
-    for (auto* b : buf) b->resize(n + BoidsLanesInput::kPad);  // once: they keep their room after swaps
+    for (auto* b : buf) b->resize(n);
     const std::array<std::array<std::vector<float>*, 3>, 2> groups = {{{&s.px, &s.py, &s.pz}, {&s.vx, &s.vy, &s.vz}}};
     for (const auto& three : groups) {
       parallelFor(n, [&](std::size_t k) {
@@ -161,12 +161,6 @@ class Boids final : public Model {
       });
       for (int c = 0; c < 3; ++c) {
         three[c]->swap(*buf[c]);
-        three[c]->resize(n);
-        if (buf[c]->capacity() < n + BoidsLanesInput::kPad) {
-          // (the first step: the state's own array had no room for the padding) freed before the exact new one
-          std::vector<float>().swap(*buf[c]);
-        }
-        buf[c]->resize(n + BoidsLanesInput::kPad);
       }
     }
     float* t = lanes_.ux.data();

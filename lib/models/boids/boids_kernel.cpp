@@ -207,10 +207,7 @@ void BoidsLanesInput::prepare(const float* px, const float* py, const float* pz,
   x = px;
   y = py;
   z = pz;
-  for (auto* a : {&ux, &uy, &uz}) {
-    a->resize(n + kPad);
-    std::fill(a->begin() + static_cast<std::ptrdiff_t>(n), a->end(), 0.0f);
-  }
+  for (auto* a : {&ux, &uy, &uz}) a->resize(n);
 }
 
 void boidsCellSums(const BoidsLanesInput& in, std::uint32_t a0, std::uint32_t a1, const std::uint32_t* runs,

@@ -10,26 +10,22 @@
 // and 8-15 as two sums). At the end lanes l and l + 8 are added and the eight
 // lanes summed in a fixed tree. The result depends on the positions and velocities only, never on
 // threads or the instruction set.
-#include <array>
 #include <cstdint>
 #include <vector>
 
 #include "core/lanes.hpp"
-#include "core/vec.hpp"
-#include "spatial/uniform_grid.hpp"
 
 namespace swarmsim {
 
-// the agents in the grid's sorted order: positions (n of them, read in place: no load reads past n) and unit
-// velocities (room for n, and kPad more for the model's reuse of these arrays, boids.cpp)
+// the agents in the grid's sorted order: positions (n of them, read in place) and unit velocities (n); no load
+// reads past n
 struct BoidsLanesInput {
-  static constexpr std::size_t kPad = UniformGrid::kSortedPad;
   const float* x = nullptr;
   const float* y = nullptr;
   const float* z = nullptr;
   std::size_t n = 0;
   std::vector<float> ux, uy, uz;
-  // positions x, y, z (n each), and room for n unit velocities plus the padding (zeros)
+  // positions x, y, z (n each), and room for n unit velocities
   void prepare(const float* px, const float* py, const float* pz, std::size_t count);
 };
 

@@ -17,19 +17,25 @@ struct Tail {
   alignas(32) float in[kInputs][kLanes];
 };
 
-inline Inputs inputsAt(const BoidsUpdateRow& r, std::size_t first, std::size_t count, bool jitter, Tail& tail) {
-  const float* arrays[kInputs] = {r.px, r.py, r.pz, r.ux, r.uy, r.uz, r.vx, r.vy, r.vz};
-  for (int q = 0; q < 9; ++q) arrays[9 + q] = r.sums[q];
-  for (int q = 0; q < 4; ++q) arrays[18 + q] = jitter ? r.jitter[q] : nullptr;
+// the row's arrays in that order (the jitter's null without it)
+inline Inputs rowArrays(const BoidsUpdateRow& r) {
+  Inputs a = {{r.px, r.py, r.pz, r.ux, r.uy, r.uz, r.vx, r.vy, r.vz}};
+  for (int q = 0; q < 9; ++q) a.in[9 + q] = r.sums[q];
+  for (int q = 0; q < 4; ++q) a.in[18 + q] = r.jitter[q];
+  return a;
+}
+
+inline Inputs inputsAt(const Inputs& arrays, std::size_t first, std::size_t count, Tail& tail) {
   Inputs b;
   for (int q = 0; q < kInputs; ++q) {
-    if (!arrays[q]) {
+    const float* a = arrays.in[q];
+    if (!a) {
       b.in[q] = nullptr;
     } else if (count == kLanes) {
-      b.in[q] = arrays[q] + first;
+      b.in[q] = a + first;
     } else {
       std::fill(tail.in[q], tail.in[q] + kLanes, 0.0f);
-      std::copy(arrays[q] + first, arrays[q] + first + count, tail.in[q]);
+      std::copy(a + first, a + first + count, tail.in[q]);
       b.in[q] = tail.in[q];
     }
   }
@@ -105,11 +111,12 @@ inline void updateEight(const Inputs& b, const BoidsUpdateParams& p, bool jitter
 template <typename L>
 inline void updateRow(const BoidsUpdateRow& r, std::size_t m, const BoidsUpdateParams& p) {
   const bool jitter = r.jitter[0] != nullptr;
+  const Inputs arrays = rowArrays(r);
   Tail tail;
   alignas(32) float out[3][kLanes];
   for (std::size_t first = 0; first < m; first += kLanes) {
     const std::size_t count = std::min(kLanes, m - first);
-    updateEight<L>(inputsAt(r, first, count, jitter, tail), p, jitter, out);
+    updateEight<L>(inputsAt(arrays, first, count, tail), p, jitter, out);
     // (after every read of the eight: v is read and written in place)
     for (std::size_t l = 0; l < count; ++l) {
       r.vx[first + l] = out[0][l];

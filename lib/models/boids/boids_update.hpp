@@ -4,9 +4,7 @@
 // velocity from the sums, the centre pull, the soft walls and the jitter (Box-Muller on lanes:
 // logUnitLanes, cosSinTurnLanes), then the blend and the speed limits. Each agent's result depends on its own
 // inputs only.
-#include <array>
 #include <cstddef>
-#include <cstdint>
 
 #include "core/lanes.hpp"
 #include "core/vec.hpp"
