@@ -6,6 +6,7 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <random>
 #include <vector>
 
@@ -47,51 +48,95 @@ void reference(const Points& p, std::size_t k, std::size_t b, std::size_t e, dou
 
 }  // namespace
 
-TEST_CASE("MDE within a cell: every pair once, pushes equal the brute-force sums", "[mde]") {
-  // sizes cover empty, single, tails of 1-3 and several SIMD blocks
-  const std::size_t n = GENERATE(0u, 1u, 2u, 3u, 4u, 5u, 7u, 8u, 9u, 31u, 64u, 101u);
+namespace {
+
+// mdeCellPairs on [2, 2 + n) of p (which has 8 more entries past the run, as UniformGrid's sorted copies), with
+// px/py/pz/hits sentinels around the run
+struct CellResult {
+  std::vector<float> px, py, pz;
+  std::vector<std::int32_t> hits;
+  bool coincident = false;
+};
+CellResult cellPairs(const Points& p, std::size_t n, float md, swarmsim::LaneSet lanes) {
+  CellResult r;
+  r.px.assign(n + 10, 9.0f);
+  r.py.assign(n + 10, 9.0f);
+  r.pz.assign(n + 10, 9.0f);
+  r.hits.assign(n + 10, 7);
+  r.coincident = swarmsim::mdeCellPairs(p.x.data(), p.y.data(), p.z.data(), 2, static_cast<std::uint32_t>(2 + n), md,
+                                        r.px.data(), r.py.data(), r.pz.data(), r.hits.data(), lanes);
+  return r;
+}
+
+}  // namespace
+
+TEST_CASE("MDE within a cell: every pair once, pushes equal the brute-force sums, the same bits on every lane set",
+          "[mde]") {
+  // sizes cover empty, single, partial chunks of eight, several chunks, and more close pairs per point than the
+  // kernel's list holds (n = 700 in a small cube: its lists are flushed part way)
+  const std::size_t n = GENERATE(0u, 1u, 2u, 3u, 7u, 8u, 9u, 16u, 17u, 31u, 64u, 101u, 700u);
   INFO("n = " << n);
   const float md = 0.3f;
-  // a 0.6 m cube: most pairs are closer than md, so most lanes are active
-  Points p = randomPoints(n + 3, 0.6f, static_cast<unsigned>(n) + 11u);
-  std::vector<float> px(n + 3, 9.0f), py(n + 3, 9.0f), pz(n + 3, 9.0f);
-  std::vector<std::int32_t> hits(n + 3, 7);
-  // the run is [2, 2 + n): values outside it must stay untouched
-  const bool coincident =
-      swarmsim::mdeWithinRun(p.x.data(), p.y.data(), p.z.data(), 2, static_cast<std::uint32_t>(2 + n), md, px.data(),
-                             py.data(), pz.data(), hits.data());
-  CHECK_FALSE(coincident);
-  CHECK(px[0] == 9.0f);
-  CHECK(hits[1] == 7);
-  CHECK(px[n + 2] == 9.0f);
+  // a 0.6 m cube (0.25 m for the largest): most pairs are closer than md, so most lanes are close
+  Points p = randomPoints(n + 10, n >= 700 ? 0.25f : 0.6f, static_cast<unsigned>(n) + 11u);
+  const CellResult r = cellPairs(p, n, md, swarmsim::LaneSet::kSse);
+  CHECK_FALSE(r.coincident);
+  // nothing outside the run is written
+  CHECK(r.px[0] == 9.0f);
+  CHECK(r.hits[1] == 7);
+  CHECK(r.px[n + 2] == 9.0f);
+  CHECK(r.pz[n + 9] == 9.0f);
+  CHECK(r.hits[n + 2] == 7);
   int totalHits = 0;
   for (std::size_t k = 2; k < 2 + n; ++k) {
     double want[3];
     int wantHits = 0;
     reference(p, k, 2, 2 + n, md, want, wantHits);
-    CHECK(hits[k] == wantHits);
-    CHECK(px[k] == Approx(want[0]).margin(1e-5));
-    CHECK(py[k] == Approx(want[1]).margin(1e-5));
-    CHECK(pz[k] == Approx(want[2]).margin(1e-5));
-    totalHits += hits[k];
+    CHECK(r.hits[k] == wantHits);
+    CHECK(r.px[k] == Approx(want[0]).margin(1e-5));
+    CHECK(r.py[k] == Approx(want[1]).margin(1e-5));
+    CHECK(r.pz[k] == Approx(want[2]).margin(1e-5));
+    totalHits += r.hits[k];
   }
   if (n >= 8) CHECK(totalHits > 0);  // the test is not vacuous
+  if (n >= 700) CHECK(totalHits > 2 * 256 * static_cast<int>(n) / 4);  // many points with more than a list's pairs
   // pairwise pushes are equal and opposite: the run's pushes sum to ~0
   double sx = 0.0;
-  for (std::size_t k = 2; k < 2 + n; ++k) sx += px[k];
-  CHECK(sx == Approx(0.0).margin(1e-4));
+  for (std::size_t k = 2; k < 2 + n; ++k) sx += r.px[k];
+  CHECK(sx == Approx(0.0).margin(1e-3));
+  // every lane set lists the same pairs, so gives the same bits
+  for (const auto lanes : {swarmsim::LaneSet::kAvx, swarmsim::LaneSet::kAvx2, swarmsim::LaneSet::kAvx512}) {
+    if (lanes > swarmsim::laneSet()) continue;
+    const CellResult o = cellPairs(p, n, md, lanes);
+    CHECK(std::memcmp(o.px.data(), r.px.data(), r.px.size() * sizeof(float)) == 0);
+    CHECK(std::memcmp(o.py.data(), r.py.data(), r.py.size() * sizeof(float)) == 0);
+    CHECK(std::memcmp(o.pz.data(), r.pz.data(), r.pz.size() * sizeof(float)) == 0);
+    CHECK(o.hits == r.hits);
+  }
 }
 
-TEST_CASE("MDE within a cell reports exactly coincident points", "[mde]") {
-  Points p = randomPoints(12, 0.5f, 3u);
-  p.x[9] = p.x[4];
-  p.y[9] = p.y[4];
-  p.z[9] = p.z[4];
-  std::vector<float> px(12), py(12), pz(12);
-  std::vector<std::int32_t> hits(12);
-  CHECK(swarmsim::mdeWithinRun(p.x.data(), p.y.data(), p.z.data(), 0, 12, 0.3f, px.data(), py.data(), pz.data(),
-                               hits.data()));
-  for (float v : px) CHECK(std::isfinite(v));
+TEST_CASE("MDE within a cell reports exactly coincident points and leaves their pair to the caller", "[mde]") {
+  const std::size_t n = GENERATE(12u, 30u);
+  Points p = randomPoints(n + 10, 0.5f, 3u);
+  // points 2 + 4 and 2 + 9 of the run coincide
+  p.x[11] = p.x[6];
+  p.y[11] = p.y[6];
+  p.z[11] = p.z[6];
+  for (const auto lanes : {swarmsim::LaneSet::kSse, swarmsim::laneSet()}) {
+    const CellResult r = cellPairs(p, n, 0.3f, lanes);
+    CHECK(r.coincident);
+    for (std::size_t k = 2; k < 2 + n; ++k) {
+      CHECK(std::isfinite(r.px[k]));
+      double want[3];
+      int wantHits = 0;
+      reference(p, k, 2, 2 + n, 0.3, want, wantHits);  // (the reference skips distance 0 as well)
+      CHECK(r.hits[k] == wantHits);
+      CHECK(r.px[k] == Approx(want[0]).margin(1e-5));
+    }
+  }
+  // without the coincidence: not reported
+  p.x[11] += 0.01f;
+  CHECK_FALSE(cellPairs(p, n, 0.3f, swarmsim::laneSet()).coincident);
 }
 
 TEST_CASE("MDE push from several runs equals the brute-force sum", "[mde]") {

@@ -232,17 +232,22 @@ class FieldModel final : public Model {
 
     // keep clear of obstacles and inside the domain (applied to each final position)
     const Vec3 lo = domain_.min.cast<float>(), hi = domain_.max.cast<float>();
-    const auto settle = [&](std::size_t k, Vec3 x) {
-      x = clearance_.apply(x);
-      x = x.cwiseMax(lo).cwiseMin(hi);
-      next_.px[k] = x.x();
-      next_.py[k] = x.y();
-      next_.pz[k] = x.z();
-    };
-
     // phase 2: minimum distance enforcement on the tentative positions, then
     // clearance; the state is rewritten in grid order (spatial sorting)
     next_.resizeStorage(n);
+    // (the next state's arrays as locals: stores through them cannot change them, so the loops need not load
+    // them again after each store)
+    float *const nextPx = next_.px.data(), *const nextPy = next_.py.data(), *const nextPz = next_.pz.data();
+    float *const nextVx = next_.vx.data(), *const nextVy = next_.vy.data(), *const nextVz = next_.vz.data();
+    std::uint32_t* const nextId = next_.id.data();
+    const ObstacleClearance& clearance = clearance_;
+    const auto settle = [&](std::size_t k, Vec3 x) {
+      x = clearance.apply(x);
+      x = x.cwiseMax(lo).cwiseMin(hi);
+      nextPx[k] = x.x();
+      nextPy[k] = x.y();
+      nextPz[k] = x.z();
+    };
     std::size_t moved = 0;
     if (p_.minDistance > 0.0 && n > 1) {
       const float md = static_cast<float>(p_.minDistance);
@@ -262,30 +267,36 @@ class FieldModel final : public Model {
         for (auto* a : {&pushX_, &pushY_, &pushZ_}) a->resize(n);
         hits_.resize(n);
         const std::size_t cells = grid_.cellCount();
+        const LaneSet lanes = laneSet();
+        float *const pushX = pushX_.data(), *const pushY = pushY_.data(), *const pushZ = pushZ_.data();
+        std::int32_t* const hits = hits_.data();
+        std::uint8_t* const movedFlag = movedFlag_.data();
+        const std::uint32_t* const stateId = s.id.data();
+        const float *const vx = vx_.data(), *const vy = vy_.data(), *const vz = vz_.data();
         const auto cellWork = [&](std::size_t c) {
           const std::uint32_t b = grid_.cellBegin(c), e = grid_.cellEnd(c);
           if (b == e) return;
-          if (mdeWithinRun(sx, sy, sz, b, e, md, pushX_.data(), pushY_.data(), pushZ_.data(), hits_.data())) {
+          if (mdeCellPairs(sx, sy, sz, b, e, md, pushX, pushY, pushZ, hits, lanes)) {
             // exactly coincident agents (rare) separate along x, ordered by id
             for (std::uint32_t k = b; k < e; ++k) {
               for (std::uint32_t j = k + 1; j < e; ++j) {
                 if (sx[j] != sx[k] || sy[j] != sy[k] || sz[j] != sz[k]) continue;
-                const float f = (s.id[order[k]] < s.id[order[j]] ? 0.5f : -0.5f) * md;
-                pushX_[k] -= f;
-                pushX_[j] += f;
-                ++hits_[k];
-                ++hits_[j];
+                const float f = (stateId[order[k]] < stateId[order[j]] ? 0.5f : -0.5f) * md;
+                pushX[k] -= f;
+                pushX[j] += f;
+                ++hits[k];
+                ++hits[j];
               }
             }
           }
           for (std::uint32_t k = b; k < e; ++k) {
             const std::uint32_t i = order[k];
-            movedFlag_[k] = hits_[k] > 0 ? 1 : 0;
-            next_.id[k] = s.id[i];
-            settle(k, Vec3(sx[k] + pushX_[k], sy[k] + pushY_[k], sz[k] + pushZ_[k]));
-            next_.vx[k] = vx_[i];
-            next_.vy[k] = vy_[i];
-            next_.vz[k] = vz_[i];
+            movedFlag[k] = hits[k] > 0 ? 1 : 0;
+            nextId[k] = stateId[i];
+            settle(k, Vec3(sx[k] + pushX[k], sy[k] + pushY[k], sz[k] + pushZ[k]));
+            nextVx[k] = vx[i];
+            nextVy[k] = vy[i];
+            nextVz[k] = vz[i];
           }
         };
         if (n < kSerialBelow) {  // few agents: not worth waking the team
