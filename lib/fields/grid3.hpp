@@ -91,6 +91,26 @@ struct Grid3 {
     }
     T operator()(const Vec3& p) const { return blend(corners(p)); }
 
+    // the constants, for batch samplers that compute base() on lanes (fields/sample_batch.hpp)
+    struct Constants {
+      const T* data;
+      std::size_t size, nx, ny, dx, sy, sz;
+      float min[3], cell[3];
+      int last[3];
+    };
+    Constants constants() const {
+      return Constants{data_,
+                       size_,
+                       nx_,
+                       ny_,
+                       dx_,
+                       sy_,
+                       sz_,
+                       {min_[0], min_[1], min_[2]},
+                       {cell_[0], cell_[1], cell_[2]},
+                       {last_[0], last_[1], last_[2]}};
+    }
+
     // the base cell along axis a of a sample at coordinate x (it reads cells base and base + 1), and f, the
     // fraction of the way to the next cell's centre
     std::size_t base(float x, int a, float& f) const {

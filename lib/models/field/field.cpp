@@ -11,6 +11,7 @@
 #include "fields/curl_noise.hpp"
 #include "fields/fast_marching.hpp"
 #include "fields/grid3.hpp"
+#include "fields/sample_batch.hpp"
 #include "geometry/clearance.hpp"
 #include "geometry/obstacles.hpp"
 #include "geometry/signed_distance.hpp"
@@ -203,11 +204,12 @@ class FieldModel final : public Model {
     const Vec3 light = p_.light.cast<float>();
     const float gain = static_cast<float>(p_.gain);
     const auto combined = combined_.sampler(), global = global_.sampler(), noise = noise_.sampler();
-    parallelFor(n, [&](std::size_t i) {
+    const LaneSet lanes = laneSet();
+    const auto agent = [&](std::size_t i, const Vec3& fieldV) {
       const Vec3 x = s.position(i);
       Vec3 v;
       if (combinedOk_) {
-        v = combined(x);  // V = ∇×N + V_g (eq. 9), one lookup
+        v = fieldV;  // V = ∇×N + V_g (eq. 9), one lookup
       } else {
         v = hasGoals_ ? global(x) : Vec3::Zero();
         if (p_.noise == NoiseKind::kWhite) {
@@ -227,6 +229,16 @@ class FieldModel final : public Model {
       nx_[i] = x.x() + v.x() * dt;
       ny_[i] = x.y() + v.y() * dt;
       nz_[i] = x.z() + v.z() * dt;
+    };
+    // each thread's agents in blocks: the combined field's samples of a block first, eight at a time
+    parallelChunks(n, [&](std::size_t first, std::size_t last, int) {
+      constexpr std::size_t kBlock = 64;
+      Vec3 fieldV[kBlock];
+      for (std::size_t b = first; b < last; b += kBlock) {
+        const std::size_t m = std::min(kBlock, last - b);
+        if (combinedOk_) sampleBatch(combined, s.px.data() + b, s.py.data() + b, s.pz.data() + b, m, fieldV, lanes);
+        for (std::size_t i = b; i < b + m; ++i) agent(i, combinedOk_ ? fieldV[i - b] : Vec3::Zero());
+      }
     });
 
     // keep clear of obstacles and inside the domain (applied to each final position)
@@ -266,7 +278,6 @@ class FieldModel final : public Model {
         for (auto* a : {&pushX_, &pushY_, &pushZ_}) a->resize(n);
         hits_.resize(n);
         const std::size_t cells = grid_.cellCount();
-        const LaneSet lanes = laneSet();
         float *const pushX = pushX_.data(), *const pushY = pushY_.data(), *const pushZ = pushZ_.data();
         std::int32_t* const hits = hits_.data();
         std::uint8_t* const movedFlag = movedFlag_.data();
@@ -290,6 +301,9 @@ class FieldModel final : public Model {
           }
           for (std::uint32_t k = b; k < e; ++k) {
             const std::uint32_t i = order[k];
+            // (the records of the agents a few cells on: a new cell's agents come from several cells of the
+            // last step's order, streams too many for the hardware's prefetch)
+            if (k + kCarriedAhead < n) __builtin_prefetch(carried + order[k + kCarriedAhead]);
             movedFlag[k] = hits[k] > 0 ? 1 : 0;
             const Carried carry = carried[i];
             nextId[k] = carry.id;
@@ -438,6 +452,7 @@ class FieldModel final : public Model {
     std::uint32_t id;
   };
   std::vector<Carried> carried_;
+  static constexpr std::size_t kCarriedAhead = 128;
   std::vector<std::uint8_t> movedFlag_;
   std::vector<float> pushX_, pushY_, pushZ_;  // MDE pushes per sorted agent (same_cell)
   std::vector<std::int32_t> hits_;
