@@ -6,7 +6,7 @@
 namespace swarmsim {
 namespace {
 
-// the pairs' index lists are flushed to the second pass when fewer than a chunk's entries remain free
+// the pair lists are flushed to the second pass when fewer than a chunk's entries remain free
 constexpr std::size_t kListSize = 256;
 
 // for each 8-bit mask, the lane numbers of its set bits in ascending order (then zeros): the compaction of a
@@ -29,14 +29,13 @@ constexpr CompactTable kCompact = makeCompactTable();
 // lanes 0 .. count-1 of a chunk (count >= 1)
 inline unsigned firstOf(std::uint32_t count) { return 0xffu >> (8u - (count < 8u ? count : 8u)); }
 
-// the second pass: point k's pushes from the listed later points, in the list's order
-inline void listedPushes(const float* x, const float* y, const float* z, std::uint32_t k, const std::uint32_t* list,
-                         std::size_t count, float md, float md2, float* px, float* py, float* pz, std::int32_t* hits,
-                         float acc[3], std::int32_t& ah, bool& coincident) {
-  const float qx = x[k], qy = y[k], qz = z[k];
+// the second pass: the listed pairs (k, j), k < j, in the list's order
+inline void listedPushes(const float* x, const float* y, const float* z, const std::uint32_t* ks,
+                         const std::uint32_t* js, std::size_t count, float md, float md2, float* px, float* py,
+                         float* pz, std::int32_t* hits, bool& coincident) {
   for (std::size_t i = 0; i < count; ++i) {
-    const std::uint32_t j = list[i];
-    const float dx = x[j] - qx, dy = y[j] - qy, dz = z[j] - qz;
+    const std::uint32_t k = ks[i], j = js[i];
+    const float dx = x[j] - x[k], dy = y[j] - y[k], dz = z[j] - z[k];
     const float d2 = dx * dx + dy * dy + dz * dz;
     if (d2 == 0.0f) {
       coincident = true;
@@ -45,48 +44,42 @@ inline void listedPushes(const float* x, const float* y, const float* z, std::ui
     float w;
     if (!mdeWeight(d2, md, md2, w)) continue;
     const float fx = dx * w, fy = dy * w, fz = dz * w;
-    acc[0] -= fx;
-    acc[1] -= fy;
-    acc[2] -= fz;
+    px[k] -= fx;
+    py[k] -= fy;
+    pz[k] -= fz;
     px[j] += fx;
     py[j] += fy;
     pz[j] += fz;
+    ++hits[k];
     ++hits[j];
-    ++ah;
   }
 }
 
-// Compact(out, j, m): writes j + the lane numbers of m's set bits to out[0 ..] (eight entries written) and
-// returns how many are set
+// compact(kOut, out, k, j, m): writes j + the lane numbers of m's set bits to out[0 ..] and k beside each to
+// kOut[0 ..] (eight entries written to each), and returns how many are set
 template <class L, class Compact>
 inline bool cellPairs(const float* x, const float* y, const float* z, std::uint32_t b, std::uint32_t e, float md,
                       float* px, float* py, float* pz, std::int32_t* hits, Compact compact) {
   const float md2 = md * md;
   for (std::uint32_t k = b; k < e; ++k) px[k] = py[k] = pz[k] = 0.0f, hits[k] = 0;
   bool coincident = false;
-  std::uint32_t list[kListSize];
+  std::uint32_t ks[kListSize], js[kListSize];
   const typename L::V close2 = L::set1(md2);
+  std::size_t n = 0;
   for (std::uint32_t k = b; k < e; ++k) {
     const typename L::V qx = L::set1(x[k]), qy = L::set1(y[k]), qz = L::set1(z[k]);
-    float acc[3] = {0.0f, 0.0f, 0.0f};
-    std::int32_t ah = 0;
-    std::size_t n = 0;
     for (std::uint32_t j = k + 1; j < e; j += 8) {
       const typename L::V dx = L::sub(L::load(x + j), qx), dy = L::sub(L::load(y + j), qy);
       const typename L::V dz = L::sub(L::load(z + j), qz);
       const typename L::V d2 = L::add(L::add(L::mul(dx, dx), L::mul(dy, dy)), L::mul(dz, dz));
-      n += compact(list + n, j, L::mask(L::lt(d2, close2)) & firstOf(e - j));
+      n += compact(ks + n, js + n, k, j, L::mask(L::lt(d2, close2)) & firstOf(e - j));
       if (n > kListSize - 8) {
-        listedPushes(x, y, z, k, list, n, md, md2, px, py, pz, hits, acc, ah, coincident);
+        listedPushes(x, y, z, ks, js, n, md, md2, px, py, pz, hits, coincident);
         n = 0;
       }
     }
-    listedPushes(x, y, z, k, list, n, md, md2, px, py, pz, hits, acc, ah, coincident);
-    px[k] += acc[0];
-    py[k] += acc[1];
-    pz[k] += acc[2];
-    hits[k] += ah;
   }
+  listedPushes(x, y, z, ks, js, n, md, md2, px, py, pz, hits, coincident);
   return coincident;
 }
 
@@ -95,8 +88,10 @@ SWARMSIM_AVX2 __attribute__((flatten)) bool cellPairsAvx2(const float* x, const 
                                                           std::uint32_t b, std::uint32_t e, float md, float* px,
                                                           float* py, float* pz, std::int32_t* hits) {
   return cellPairs<AvxLanes>(
-      x, y, z, b, e, md, px, py, pz, hits, [](std::uint32_t* out, std::uint32_t j, unsigned m) SWARMSIM_AVX2 {
+      x, y, z, b, e, md, px, py, pz, hits,
+      [](std::uint32_t* kOut, std::uint32_t* out, std::uint32_t k, std::uint32_t j, unsigned m) SWARMSIM_AVX2 {
         const __m256i at = _mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(kCompact.at[m])));
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(kOut), _mm256_set1_epi32(static_cast<int>(k)));
         _mm256_storeu_si256(reinterpret_cast<__m256i*>(out),
                             _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(j)), at));
         return static_cast<std::size_t>(__builtin_popcount(m));
@@ -109,11 +104,15 @@ using PortableLanes = ScalarLanes;
 
 bool cellPairsPortable(const float* x, const float* y, const float* z, std::uint32_t b, std::uint32_t e, float md,
                        float* px, float* py, float* pz, std::int32_t* hits) {
-  return cellPairs<PortableLanes>(x, y, z, b, e, md, px, py, pz, hits,
-                                  [](std::uint32_t* out, std::uint32_t j, unsigned m) {
-                                    for (unsigned l = 0; l < 8; ++l) out[l] = j + kCompact.at[m][l];
-                                    return static_cast<std::size_t>(laneCount(m));
-                                  });
+  return cellPairs<PortableLanes>(
+      x, y, z, b, e, md, px, py, pz, hits,
+      [](std::uint32_t* kOut, std::uint32_t* out, std::uint32_t k, std::uint32_t j, unsigned m) {
+        for (unsigned l = 0; l < 8; ++l) {
+          kOut[l] = k;
+          out[l] = j + kCompact.at[m][l];
+        }
+        return static_cast<std::size_t>(laneCount(m));
+      });
 }
 
 }  // namespace
