@@ -10,10 +10,20 @@ namespace {
 
 using Constants = Grid3<Vec3>::Sampler::Constants;
 
-// the blend of Grid3<Vec3>::Sampler::operator() (its SSE form) for a base cell b with fractions f and g = 1 - f
-inline Vec3 blendAt(const Constants& c, const Grid3<Vec3>::Sampler& s, const Vec3& p, std::size_t b, const float f[3],
-                    const float g[3]) {
-  if (b + c.sz + c.sy + c.dx + 1 >= c.size) return s(p);  // the last value: the sampler's own path
+inline void put(const Vec3& v, float* out) {
+  out[0] = v.x();
+  out[1] = v.y();
+  out[2] = v.z();
+}
+
+// the blend of Grid3<Vec3>::Sampler::operator() (its SSE form) for a base cell b with fractions f and g = 1 - f,
+// to out[0..2] (out[3]: anything)
+inline void blendAt(const Constants& c, const Grid3<Vec3>::Sampler& s, const Vec3& p, std::size_t b, const float f[3],
+                    const float g[3], float* out) {
+  if (b + c.sz + c.sy + c.dx + 1 >= c.size) {  // the last value: the sampler's own path
+    put(s(p), out);
+    return;
+  }
 #if defined(__SSE2__)
   const float* raw = c.data->data();
   const auto at = [&](std::size_t i) { return _mm_loadu_ps(raw + 3 * i); };
@@ -26,11 +36,9 @@ inline Vec3 blendAt(const Constants& c, const Grid3<Vec3>::Sampler& s, const Vec
   const __m128 c01 = lerp(at(b + sz), at(b + sz + dx), g[0], f[0]);
   const __m128 c11 = lerp(at(b + sz + sy), at(b + sz + sy + dx), g[0], f[0]);
   const __m128 r = lerp(lerp(c00, c10, g[1], f[1]), lerp(c01, c11, g[1], f[1]), g[2], f[2]);
-  alignas(16) float o[4];
-  _mm_store_ps(o, r);
-  return Vec3(o[0], o[1], o[2]);
+  _mm_storeu_ps(out, r);
 #else
-  return s(p);
+  put(s(p), out);
 #endif
 }
 
@@ -64,7 +72,7 @@ SWARMSIM_AVX inline void basesAvx(const Constants& c, int a, const float* x, std
 }
 
 SWARMSIM_AVX __attribute__((flatten)) void sampleAvx(const Grid3<Vec3>::Sampler& s, const float* x, const float* y,
-                                                     const float* z, std::size_t n, Vec3* out) {
+                                                     const float* z, std::size_t n, float (*out)[4]) {
   const Constants c = s.constants();
   std::size_t i = 0;
   for (; i + 8 <= n; i += 8) {
@@ -79,17 +87,17 @@ SWARMSIM_AVX __attribute__((flatten)) void sampleAvx(const Grid3<Vec3>::Sampler&
           static_cast<std::size_t>(cell[0][l]);
       const float fl[3] = {f[0][l], f[1][l], f[2][l]};
       const float gl[3] = {1.0f - fl[0], 1.0f - fl[1], 1.0f - fl[2]};
-      out[i + l] = blendAt(c, s, Vec3(x[i + l], y[i + l], z[i + l]), b, fl, gl);
+      blendAt(c, s, Vec3(x[i + l], y[i + l], z[i + l]), b, fl, gl, out[i + l]);
     }
   }
-  for (; i < n; ++i) out[i] = s(Vec3(x[i], y[i], z[i]));
+  for (; i < n; ++i) put(s(Vec3(x[i], y[i], z[i])), out[i]);
 }
 #endif
 
 }  // namespace
 
 void sampleBatch(const Grid3<Vec3>::Sampler& s, const float* x, const float* y, const float* z, std::size_t n,
-                 Vec3* out, LaneSet lanes) {
+                 float (*out)[4], LaneSet lanes) {
 #if SWARMSIM_X86_LANES
   if (lanes != LaneSet::kSse) {
     sampleAvx(s, x, y, z, n, out);
@@ -98,7 +106,7 @@ void sampleBatch(const Grid3<Vec3>::Sampler& s, const float* x, const float* y, 
 #else
   (void)lanes;
 #endif
-  for (std::size_t i = 0; i < n; ++i) out[i] = s(Vec3(x[i], y[i], z[i]));
+  for (std::size_t i = 0; i < n; ++i) put(s(Vec3(x[i], y[i], z[i])), out[i]);
 }
 
 }  // namespace swarmsim

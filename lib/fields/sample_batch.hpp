@@ -10,8 +10,9 @@
 
 namespace swarmsim {
 
-// out[i] = s(Vec3(x[i], y[i], z[i])) for i < n. `lanes`: laneSet() (AVX or wider: eight points at a time)
+// out[i][0..2] = s(Vec3(x[i], y[i], z[i])) for i < n (out[i][3]: anything; one 16-byte store a point).
+// `lanes`: laneSet() (AVX or wider: eight points at a time)
 void sampleBatch(const Grid3<Vec3>::Sampler& s, const float* x, const float* y, const float* z, std::size_t n,
-                 Vec3* out, LaneSet lanes);
+                 float (*out)[4], LaneSet lanes);
 
 }  // namespace swarmsim

@@ -233,11 +233,12 @@ class FieldModel final : public Model {
     // each thread's agents in blocks: the combined field's samples of a block first, eight at a time
     parallelChunks(n, [&](std::size_t first, std::size_t last, int) {
       constexpr std::size_t kBlock = 64;
-      Vec3 fieldV[kBlock];
+      alignas(16) float fieldV[kBlock][4];
       for (std::size_t b = first; b < last; b += kBlock) {
         const std::size_t m = std::min(kBlock, last - b);
         if (combinedOk_) sampleBatch(combined, s.px.data() + b, s.py.data() + b, s.pz.data() + b, m, fieldV, lanes);
-        for (std::size_t i = b; i < b + m; ++i) agent(i, combinedOk_ ? fieldV[i - b] : Vec3::Zero());
+        for (std::size_t i = b; i < b + m; ++i)
+          agent(i, combinedOk_ ? Vec3(fieldV[i - b][0], fieldV[i - b][1], fieldV[i - b][2]) : Vec3::Zero());
       }
     });
 
