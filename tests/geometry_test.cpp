@@ -2,22 +2,22 @@
 // and signed distance fields against analytic shapes and brute force.
 #include <algorithm>
 #include <array>
+#include <catch2/catch.hpp>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <map>
 #include <string>
 #include <utility>
 #include <vector>
 
-#include <catch2/catch.hpp>
-
+#include "brute_distance.hpp"
 #include "core/error.hpp"
 #include "core/parallel.hpp"
 #include "geometry/clearance.hpp"
 #include "geometry/mesh.hpp"
 #include "geometry/obstacles.hpp"
 #include "geometry/signed_distance.hpp"
-#include "brute_distance.hpp"
 #include "test_util.hpp"
 
 using Catch::Matchers::Contains;
@@ -573,5 +573,59 @@ TEST_CASE("ObstacleClearance::distanceBound: never above distance, and within a 
     CHECK(above == 0);
     CHECK(loose == 0);
     CHECK(inside > 1000);  // the bound is checked on both signs
+  }
+}
+
+TEST_CASE("ObstacleClearance::settle gives apply and the domain clamp point by point, on every lane set",
+          "[geometry][sdf]") {
+  Obstacles o = meshes({icosphere(3, 0.6, Vec3d(0.2, -0.1, 0.05))});
+  o.spheres.push_back(SphereObstacle{Vec3d(1.2, 1.1, 0.4), 0.3});
+  const GridSpec spec = GridSpec::covering(Vec3d(-2, -2, -1), Vec3d(2, 2, 1), {41, 37, 23});
+  const bool any = GENERATE(true, false);
+  const swarmsim::ObstacleClearance c(swarmsim::signedDistance(o, spec), 0.05f, any);
+  const Vec3 lo(-1.5f, -1.5f, 0.0f), hi(1.5f, 1.5f, 0.8f);
+  std::uint64_t state = 777;
+  const auto uniform = [&](double a, double b) {
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    return static_cast<float>(a + (b - a) * static_cast<double>(state >> 11) * 0x1.0p-53);
+  };
+  std::vector<float> x, y, z;
+  // first (so that the eights take them): on the domain's bounds, signed zeros on a zero bound (far from both
+  // obstacles, so apply leaves them), a point in the last cell of the grid, one inside an obstacle
+  for (const Vec3& p : {Vec3(-1.5f, 1.5f, 0.8f), Vec3(-1.4f, -1.4f, -0.0f), Vec3(-1.3f, -1.4f, 0.0f),
+                        Vec3(1.99f, 1.99f, 0.99f), Vec3(0.2f, -0.1f, 0.05f)}) {
+    x.push_back(p.x());
+    y.push_back(p.y());
+    z.push_back(p.z());
+  }
+  for (int t = 0; t < 5000; ++t) {
+    // over the grid and beyond it, so points fall inside the obstacles, near them, far, and out of the domain
+    x.push_back(uniform(-2.5, 2.5));
+    y.push_back(uniform(-2.5, 2.5));
+    z.push_back(uniform(-1.5, 1.5));
+  }
+  const std::size_t n = x.size();
+  std::vector<float> wx(n), wy(n), wz(n);
+  int moved = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec3 a = c.apply(Vec3(x[i], y[i], z[i]));
+    moved += a != Vec3(x[i], y[i], z[i]) ? 1 : 0;
+    const Vec3 p = a.cwiseMax(lo).cwiseMin(hi);
+    wx[i] = p.x();
+    wy[i] = p.y();
+    wz[i] = p.z();
+  }
+  if (any) CHECK(moved > 50);  // clearance pushed many of them
+  for (const auto lanes : {swarmsim::LaneSet::kSse, swarmsim::LaneSet::kAvx2}) {
+    if (lanes > swarmsim::laneSet()) continue;
+    for (const std::size_t m : {std::size_t{0}, std::size_t{5}, std::size_t{8}, std::size_t{21}, n}) {
+      std::vector<float> gx = x, gy = y, gz = z;
+      c.settle(gx.data(), gy.data(), gz.data(), m, lo, hi, lanes);
+      INFO("lanes " << static_cast<int>(lanes) << ", " << m << " points");
+      CHECK(std::memcmp(gx.data(), wx.data(), m * sizeof(float)) == 0);
+      CHECK(std::memcmp(gy.data(), wy.data(), m * sizeof(float)) == 0);
+      CHECK(std::memcmp(gz.data(), wz.data(), m * sizeof(float)) == 0);
+      if (m < n) CHECK(gx[m] == x[m]);  // nothing past m
+    }
   }
 }

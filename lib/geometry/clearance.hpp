@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/lanes.hpp"
 #include "core/vec.hpp"
 #include "fields/grid3.hpp"
 
@@ -26,6 +27,11 @@ class ObstacleClearance {
   // whether apply(x) is x itself for certain (no obstacle, or x in a cell far from every one)
   bool leaves(const Vec3& x) const { return !any_ || far(x); }
   Vec3 apply(Vec3 x) const { return leaves(x) ? x : project(x); }
+  // For m points in place (x[i], y[i], z[i]): apply, then the result clamped to [lo, hi] per axis
+  // (p.cwiseMax(lo).cwiseMin(hi)), with the same bits as one at a time. Where `lanes` is kAvx2 or kAvx512, the
+  // far test of eight points at a time (their cells' flags gathered), and apply's projection only for the
+  // points that are not far.
+  void settle(float* x, float* y, float* z, std::size_t m, const Vec3& lo, const Vec3& hi, LaneSet lanes) const;
   // the signed distance at x and the outward unit normal there (zero where the
   // gradient vanishes), by central differences of half a cell
   float distance(const Vec3& x) const { return sdf_.sample(x); }
@@ -46,7 +52,8 @@ class ObstacleClearance {
 
  private:
   Grid3<float> sdf_;
-  std::vector<std::uint8_t> far_;  // per cell: 1 = no clearance needed anywhere in it
+  std::vector<std::uint8_t> far_;  // per cell: 1 = no clearance needed anywhere in it (then 3 bytes of padding,
+                                   // for settle's 4-byte gathers)
   std::vector<float> cornerMin_;   // per base cell of a sample: its eight corners' smallest value, less rounding
                                    // (prepareDistanceBound)
   std::size_t nx_ = 0, ny_ = 0;
@@ -62,6 +69,11 @@ class ObstacleClearance {
     return far_[sdf_.spec.index(cell[0], cell[1], cell[2])] != 0;
   }
   Vec3 project(Vec3 x) const;  // apply near an obstacle
+#if SWARMSIM_X86_LANES
+  // settle's whole eights (returns how many points it did)
+  SWARMSIM_AVX2 std::size_t settleAvx2(float* x, float* y, float* z, std::size_t m, const Vec3& lo,
+                                       const Vec3& hi) const;
+#endif
   float radius_ = 0.0f;
   bool any_ = false;
 };

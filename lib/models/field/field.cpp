@@ -308,17 +308,29 @@ class FieldModel final : public Model {
             movedFlag[k] = hits[k] > 0 ? 1 : 0;
             const Carried carry = carried[i];
             nextId[k] = carry.id;
-            settle(k, Vec3(sx[k] + pushX[k], sy[k] + pushY[k], sz[k] + pushZ[k]));
+            nextPx[k] = sx[k] + pushX[k];  // (settled below, a group of cells at a time)
+            nextPy[k] = sy[k] + pushY[k];
+            nextPz[k] = sz[k] + pushZ[k];
             nextVx[k] = carry.vx;
             nextVy[k] = carry.vy;
             nextVz[k] = carry.vz;
           }
         };
+        // cells in groups, each group's agents settled together (clearance and the domain, eight at a time)
+        constexpr std::size_t kGroup = 64;
+        const std::size_t groups = (cells + kGroup - 1) / kGroup;
+        const auto groupWork = [&](std::size_t g) {
+          const std::size_t c0 = g * kGroup, c1 = std::min(cells, c0 + kGroup);
+          for (std::size_t c = c0; c < c1; ++c) cellWork(c);
+          const std::uint32_t b = grid_.cellBegin(c0), e = grid_.cellEnd(c1 - 1);
+          clearance.settle(nextPx + b, nextPy + b, nextPz + b, e - b, lo, hi, lanes);
+        };
         if (n < kSerialBelow) {  // few agents: not worth waking the team
-          for (std::size_t c = 0; c < cells; ++c) cellWork(c);
+          for (std::size_t g = 0; g < groups; ++g) groupWork(g);
         } else {
-          parallelForDynamic(
-              cells, std::clamp<std::size_t>(cells / (32 * static_cast<std::size_t>(threadCount())), 1, 256), cellWork);
+          parallelForDynamic(groups,
+                             std::clamp<std::size_t>(groups / (32 * static_cast<std::size_t>(threadCount())), 1, 4),
+                             groupWork);
         }
       } else {
         parallelFor(n, [&](std::size_t k) {
