@@ -225,10 +225,11 @@ class FieldModel final : public Model {
           v += normalizedOrZero(light - x) * static_cast<float>(p_.phototaxisSpeed);
         }
       }
-      carried_[i] = Carried{v.x(), v.y(), v.z(), s.id[i]};
-      nx_[i] = x.x() + v.x() * dt;
-      ny_[i] = x.y() + v.y() * dt;
-      nz_[i] = x.z() + v.z() * dt;
+      const float tx = x.x() + v.x() * dt, ty = x.y() + v.y() * dt, tz = x.z() + v.z() * dt;
+      carried_[i] = Carried{tx, ty, tz, s.id[i], v.x(), v.y(), v.z(), 0.0f};
+      nx_[i] = tx;
+      ny_[i] = ty;
+      nz_[i] = tz;
     };
     // each thread's agents in blocks: the combined field's samples of a block first, eight at a time
     parallelChunks(n, [&](std::size_t first, std::size_t last, int) {
@@ -267,63 +268,71 @@ class FieldModel final : public Model {
       // agent's ball overlaps at most 2 cells per axis). "same_cell": the paper's
       // rule, only pairs sharing a cell of the cost grid's size.
       const bool sameCell = p_.mdePairs == MdePairs::kSameCell;
+      // (same_cell reads the sorted positions from the agents' records, a group of bins at a time)
       grid_.build(nx_.data(), ny_.data(), nz_.data(), n,
-                  sameCell ? static_cast<float>(costSpec_.cell.minCoeff()) : 2.0f * md, 8.0);
+                  sameCell ? static_cast<float>(costSpec_.cell.minCoeff()) : 2.0f * md, 8.0, !sameCell);
       const auto& order = grid_.order();
-      const float* sx = grid_.sortedX().data();
-      const float* sy = grid_.sortedY().data();
-      const float* sz = grid_.sortedZ().data();
       movedFlag_.resize(n);
       if (sameCell) {
-        // each pair once, cell by cell: a cell's pairs move only its own agents
-        for (auto* a : {&pushX_, &pushY_, &pushZ_}) a->resize(n);
-        hits_.resize(n);
+        // each pair once, bin by bin: a bin's pairs move only its own agents. The bins in groups of 64: each
+        // group's agents gathered from their records into the thread's scratch (in grid order, with room for
+        // the kernel's loads past a bin's end), their pairs pushed bin by bin, then settled together
+        // (clearance and the domain, eight at a time)
         const std::size_t cells = grid_.cellCount();
-        float *const pushX = pushX_.data(), *const pushY = pushY_.data(), *const pushZ = pushZ_.data();
-        std::int32_t* const hits = hits_.data();
         std::uint8_t* const movedFlag = movedFlag_.data();
-        const std::uint32_t* const stateId = s.id.data();
         const Carried* const carried = carried_.data();
-        const auto cellWork = [&](std::size_t c) {
-          const std::uint32_t b = grid_.cellBegin(c), e = grid_.cellEnd(c);
-          if (b == e) return;
-          if (mdeCellPairs(sx, sy, sz, b, e, md, pushX, pushY, pushZ, hits, lanes)) {
-            // exactly coincident agents (rare) separate along x, ordered by id
-            for (std::uint32_t k = b; k < e; ++k) {
-              for (std::uint32_t j = k + 1; j < e; ++j) {
-                if (sx[j] != sx[k] || sy[j] != sy[k] || sz[j] != sz[k]) continue;
-                const float f = (stateId[order[k]] < stateId[order[j]] ? 0.5f : -0.5f) * md;
-                pushX[k] -= f;
-                pushX[j] += f;
-                ++hits[k];
-                ++hits[j];
-              }
-            }
-          }
-          for (std::uint32_t k = b; k < e; ++k) {
-            const std::uint32_t i = order[k];
-            // (the records of the agents a few cells on: a new cell's agents come from several cells of the
-            // last step's order, streams too many for the hardware's prefetch)
-            if (k + kCarriedAhead < n) __builtin_prefetch(carried + order[k + kCarriedAhead]);
-            movedFlag[k] = hits[k] > 0 ? 1 : 0;
-            const Carried carry = carried[i];
-            nextId[k] = carry.id;
-            nextPx[k] = sx[k] + pushX[k];  // (settled below, a group of cells at a time)
-            nextPy[k] = sy[k] + pushY[k];
-            nextPz[k] = sz[k] + pushZ[k];
-            nextVx[k] = carry.vx;
-            nextVy[k] = carry.vy;
-            nextVz[k] = carry.vz;
-          }
-        };
-        // cells in groups, each group's agents settled together (clearance and the domain, eight at a time)
+        groupScratch_.resize(static_cast<std::size_t>(threadCount()));
         constexpr std::size_t kGroup = 64;
         const std::size_t groups = (cells + kGroup - 1) / kGroup;
         const auto groupWork = [&](std::size_t g) {
           const std::size_t c0 = g * kGroup, c1 = std::min(cells, c0 + kGroup);
-          for (std::size_t c = c0; c < c1; ++c) cellWork(c);
-          const std::uint32_t b = grid_.cellBegin(c0), e = grid_.cellEnd(c1 - 1);
-          clearance.settle(nextPx + b, nextPy + b, nextPz + b, e - b, lo, hi, lanes);
+          const std::uint32_t first = grid_.cellBegin(c0), last = grid_.cellEnd(c1 - 1);
+          if (first == last) return;
+          GroupScratch& w = groupScratch_[static_cast<std::size_t>(threadIndex())];
+          const std::size_t m = last - first;
+          w.reserve(m + 8);
+          float *const gx = w.x.data(), *const gy = w.y.data(), *const gz = w.z.data();
+          float *const pushX = w.px.data(), *const pushY = w.py.data(), *const pushZ = w.pz.data();
+          std::int32_t* const hits = w.hits.data();
+          for (std::uint32_t k = first; k < last; ++k) {
+            // (the records of the agents a few bins on: a new bin's agents come from several bins of the last
+            // step's order, streams too many for the hardware's prefetch)
+            if (k + kCarriedAhead < n) __builtin_prefetch(carried + order[k + kCarriedAhead]);
+            const Carried& r = carried[order[k]];
+            const std::size_t q = k - first;
+            gx[q] = r.x;
+            gy[q] = r.y;
+            gz[q] = r.z;
+            nextId[k] = r.id;
+            nextVx[k] = r.vx;
+            nextVy[k] = r.vy;
+            nextVz[k] = r.vz;
+          }
+          for (std::size_t c = c0; c < c1; ++c) {
+            const std::uint32_t b = grid_.cellBegin(c) - first, e = grid_.cellEnd(c) - first;
+            if (b == e) continue;
+            if (mdeCellPairs(gx, gy, gz, b, e, md, pushX, pushY, pushZ, hits, lanes)) {
+              // exactly coincident agents (rare) separate along x, ordered by id
+              for (std::uint32_t k = b; k < e; ++k) {
+                for (std::uint32_t j = k + 1; j < e; ++j) {
+                  if (gx[j] != gx[k] || gy[j] != gy[k] || gz[j] != gz[k]) continue;
+                  const float f = (nextId[first + k] < nextId[first + j] ? 0.5f : -0.5f) * md;
+                  pushX[k] -= f;
+                  pushX[j] += f;
+                  ++hits[k];
+                  ++hits[j];
+                }
+              }
+            }
+          }
+          for (std::uint32_t k = first; k < last; ++k) {
+            const std::size_t q = k - first;
+            movedFlag[k] = hits[q] > 0 ? 1 : 0;
+            nextPx[k] = gx[q] + pushX[q];
+            nextPy[k] = gy[q] + pushY[q];
+            nextPz[k] = gz[q] + pushZ[q];
+          }
+          clearance.settle(nextPx + first, nextPy + first, nextPz + first, m, lo, hi, lanes);
         };
         if (n < kSerialBelow) {  // few agents: not worth waking the team
           for (std::size_t g = 0; g < groups; ++g) groupWork(g);
@@ -333,6 +342,9 @@ class FieldModel final : public Model {
                              groupWork);
         }
       } else {
+        const float* sx = grid_.sortedX().data();
+        const float* sy = grid_.sortedY().data();
+        const float* sz = grid_.sortedZ().data();
         parallelFor(n, [&](std::size_t k) {
           const std::uint32_t i = order[k];
           MdePush kernel(md);
@@ -457,18 +469,28 @@ class FieldModel final : public Model {
   // scratch, reused every step
   UniformGrid grid_;
   std::vector<float> nx_, ny_, nz_;
-  // what an agent carries unchanged from phase 1 into the sorted state: its velocity and id, together, so that
-  // the rewrite in grid order reads one cache line per agent where four arrays took four (about a tenth of the
-  // step of scenarios/locusts_1m.json)
-  struct Carried {
-    float vx, vy, vz;
+  // what an agent carries from phase 1 into the state in grid order: its tentative position, id and velocity in
+  // one 32-byte record, so that same_cell's gather in grid order reads half a cache line per agent (its grid
+  // keeps no sorted copies of the positions)
+  struct alignas(32) Carried {
+    float x, y, z;  // the tentative position
     std::uint32_t id;
+    float vx, vy, vz, unused;
   };
   std::vector<Carried> carried_;
   static constexpr std::size_t kCarriedAhead = 128;
   std::vector<std::uint8_t> movedFlag_;
-  std::vector<float> pushX_, pushY_, pushZ_;  // MDE pushes per sorted agent (same_cell)
-  std::vector<std::int32_t> hits_;
+  // same_cell MDE, per thread: a group of bins' sorted positions and their pushes (grown, never shrunk)
+  struct GroupScratch {
+    std::vector<float> x, y, z, px, py, pz;
+    std::vector<std::int32_t> hits;
+    void reserve(std::size_t size) {
+      if (x.size() >= size) return;
+      for (auto* a : {&x, &y, &z, &px, &py, &pz}) a->resize(size);
+      hits.resize(size);
+    }
+  };
+  std::vector<GroupScratch> groupScratch_;
   std::vector<std::size_t> movedCounts_;  // per chunk
   SwarmState next_;
 };
