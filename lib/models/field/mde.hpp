@@ -153,8 +153,8 @@ class MdePush {
 // first pass and 15 % more from the one loop over the pairs, 1 thread.) A
 // point's push adds its pairs' contributions in the list's order, its pairs with earlier points of the run
 // first (by the earlier point, ascending), then its pairs with later ones (ascending), so the result depends
-// only on the data. x, y and z are read up to seven entries past e (UniformGrid's sorted copies have
-// kSortedPad entries there). `lanes`: laneSet(); AVX2 compacts the lists where it is kAvx2 or kAvx512, with
+// only on the data. x, y and z are read up to seven entries past e (the field model's group scratch has
+// them; their values do not matter). `lanes`: laneSet(); AVX2 compacts the lists where it is kAvx2 or kAvx512, with
 // the same lists and so the same bits. Returns true if two points of the run coincide exactly: those pairs are
 // left to the caller (they need an agent order).
 bool mdeCellPairs(const float* x, const float* y, const float* z, std::uint32_t b, std::uint32_t e, float md, float* px,
