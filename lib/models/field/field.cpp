@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 
@@ -22,6 +23,12 @@
 namespace swarmsim {
 
 namespace {
+
+inline float bitsAsFloat(std::uint32_t u) {
+  float f;
+  std::memcpy(&f, &u, sizeof f);
+  return f;
+}
 
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
@@ -226,7 +233,17 @@ class FieldModel final : public Model {
         }
       }
       const float tx = x.x() + v.x() * dt, ty = x.y() + v.y() * dt, tz = x.z() + v.z() * dt;
+#if defined(__SSE2__)
+      {
+        // streaming stores: the records go to memory without first reading the lines they fill (a million
+        // records do not stay in the caches until the group pass reads them)
+        float* rec = reinterpret_cast<float*>(carried_.data() + i);
+        _mm_stream_ps(rec, _mm_setr_ps(tx, ty, tz, bitsAsFloat(s.id[i])));
+        _mm_stream_ps(rec + 4, _mm_setr_ps(v.x(), v.y(), v.z(), 0.0f));
+      }
+#else
       carried_[i] = Carried{tx, ty, tz, s.id[i], v.x(), v.y(), v.z(), 0.0f};
+#endif
       nx_[i] = tx;
       ny_[i] = ty;
       nz_[i] = tz;
@@ -241,6 +258,9 @@ class FieldModel final : public Model {
         for (std::size_t i = b; i < b + m; ++i)
           agent(i, combinedOk_ ? Vec3(fieldV[i - b][0], fieldV[i - b][1], fieldV[i - b][2]) : Vec3::Zero());
       }
+#if defined(__SSE2__)
+      _mm_sfence();  // (the streamed records visible to every thread before the next loop)
+#endif
     });
 
     // keep clear of obstacles and inside the domain (applied to each final position)
