@@ -62,11 +62,11 @@ TEST_CASE("sampleBatch gives the sampler's bits point by point on every lane set
     // every count of points, for the eights and the tail
     for (const std::size_t m :
          {std::size_t{0}, std::size_t{1}, std::size_t{7}, std::size_t{8}, std::size_t{13}, count}) {
-      std::vector<std::array<float, 4>> got(count, {9.0f, 9.0f, 9.0f, 9.0f});
-      swarmsim::sampleBatch(s, x.data(), y.data(), z.data(), m, reinterpret_cast<float(*)[4]>(got.data()), lanes);
+      std::vector<Vec3> got(count, Vec3(9.0f, 9.0f, 9.0f));
+      swarmsim::sampleBatch(s, x.data(), y.data(), z.data(), m, got.data(), lanes);
       INFO("lanes " << static_cast<int>(lanes) << ", " << m << " points");
       for (std::size_t i = 0; i < m; ++i) CHECK(std::memcmp(got[i].data(), want[i].data(), sizeof(Vec3)) == 0);
-      if (m < count) CHECK(got[m] == std::array<float, 4>{9.0f, 9.0f, 9.0f, 9.0f});
+      if (m < count) CHECK(got[m] == Vec3(9.0f, 9.0f, 9.0f));
     }
   }
 }

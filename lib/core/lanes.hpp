@@ -365,6 +365,15 @@ inline std::size_t packSetLanes(std::uint32_t base, unsigned mask, std::uint32_t
   return n;
 }
 
+// c[0] z^(N-1) + ... + c[N-1] by Horner's rule, per lane: p = c[0], then p = p z + c[i] (each step a
+// multiplication, then an addition: the same bits on every lane type)
+template <typename L, std::size_t N>
+__attribute__((always_inline)) inline typename L::V hornerLanes(typename L::V z, const float (&c)[N]) {
+  typename L::V p = L::set1(c[0]);
+  for (std::size_t i = 1; i < N; ++i) p = L::add(L::mul(p, z), L::set1(c[i]));
+  return p;
+}
+
 // e^x per lane (x clamped to [-87, 88]): x = n ln 2 + g with integer n = round(x log2 e) and |g| <= ln 2 / 2
 // (ln 2 in two parts, Cody and Waite, so g is nearly exact), then 2^n times the degree-7 Taylor polynomial
 // of e^g: relative error about 2e-7 at most. Written in lane operations only, so every lane type gives
@@ -375,15 +384,9 @@ __attribute__((always_inline)) inline typename L::V expLanes(typename L::V x) {
   x = L::min(L::max(x, L::set1(-87.0f)), L::set1(88.0f));
   const V n = L::round(L::mul(x, L::set1(1.44269504f)));
   const V g = L::sub(L::sub(x, L::mul(n, L::set1(0.693359375f))), L::mul(n, L::set1(-2.12194440e-4f)));
-  V p = L::set1(1.0f / 5040.0f);
-  p = L::add(L::mul(p, g), L::set1(1.0f / 720.0f));
-  p = L::add(L::mul(p, g), L::set1(1.0f / 120.0f));
-  p = L::add(L::mul(p, g), L::set1(1.0f / 24.0f));
-  p = L::add(L::mul(p, g), L::set1(1.0f / 6.0f));
-  p = L::add(L::mul(p, g), L::set1(0.5f));
-  p = L::add(L::mul(p, g), L::set1(1.0f));
-  p = L::add(L::mul(p, g), L::set1(1.0f));
-  return L::mul(p, L::pow2(n));
+  constexpr float kTaylor[] = {1.0f / 5040.0f, 1.0f / 720.0f, 1.0f / 120.0f, 1.0f / 24.0f,
+                               1.0f / 6.0f,    0.5f,          1.0f,          1.0f};
+  return L::mul(hornerLanes<L>(g, kTaylor), L::pow2(n));
 }
 
 // a where the mask m is set, else b (masks as the compares make them)
@@ -411,13 +414,8 @@ __attribute__((always_inline)) inline typename L::V logUnitLanes(typename L::V x
   e = selectLanes<L>(low, L::sub(e, L::set1(1.0f)), e);
   const V s = L::div(L::sub(m, L::set1(1.0f)), L::add(m, L::set1(1.0f)));
   const V z = L::mul(s, s);
-  V p = L::set1(1.0f / 11.0f);
-  p = L::add(L::mul(p, z), L::set1(1.0f / 9.0f));
-  p = L::add(L::mul(p, z), L::set1(1.0f / 7.0f));
-  p = L::add(L::mul(p, z), L::set1(1.0f / 5.0f));
-  p = L::add(L::mul(p, z), L::set1(1.0f / 3.0f));
-  p = L::add(L::mul(p, z), L::set1(1.0f));
-  const V lnm = L::mul(L::add(s, s), p);
+  constexpr float kSeries[] = {1.0f / 11.0f, 1.0f / 9.0f, 1.0f / 7.0f, 1.0f / 5.0f, 1.0f / 3.0f, 1.0f};
+  const V lnm = L::mul(L::add(s, s), hornerLanes<L>(z, kSeries));
   return L::add(L::mul(e, L::set1(0.693359375f)), L::add(L::mul(e, L::set1(-2.12194440e-4f)), lnm));
 }
 
@@ -432,18 +430,9 @@ __attribute__((always_inline)) inline void cosSinTurnLanes(typename L::V u, type
   const V q = L::round(L::mul(t, L::set1(4.0f)));
   const V th = L::mul(L::sub(t, L::mul(q, L::set1(0.25f))), L::set1(6.28318531f));
   const V z = L::mul(th, th);
-  V pc = L::set1(-1.0f / 3628800.0f);
-  pc = L::add(L::mul(pc, z), L::set1(1.0f / 40320.0f));
-  pc = L::add(L::mul(pc, z), L::set1(-1.0f / 720.0f));
-  pc = L::add(L::mul(pc, z), L::set1(1.0f / 24.0f));
-  pc = L::add(L::mul(pc, z), L::set1(-0.5f));
-  pc = L::add(L::mul(pc, z), L::set1(1.0f));
-  V ps = L::set1(1.0f / 362880.0f);
-  ps = L::add(L::mul(ps, z), L::set1(-1.0f / 5040.0f));
-  ps = L::add(L::mul(ps, z), L::set1(1.0f / 120.0f));
-  ps = L::add(L::mul(ps, z), L::set1(-1.0f / 6.0f));
-  ps = L::add(L::mul(ps, z), L::set1(1.0f));
-  ps = L::mul(ps, th);
+  constexpr float kCos[] = {-1.0f / 3628800.0f, 1.0f / 40320.0f, -1.0f / 720.0f, 1.0f / 24.0f, -0.5f, 1.0f};
+  constexpr float kSin[] = {1.0f / 362880.0f, -1.0f / 5040.0f, 1.0f / 120.0f, -1.0f / 6.0f, 1.0f};
+  const V pc = hornerLanes<L>(z, kCos), ps = L::mul(hornerLanes<L>(z, kSin), th);
   // q = ±1: cos and sin swap; cos < 0 for q = 1 or ±2, sin < 0 for q = −1 or ±2
   const V half = L::set1(0.5f), threeHalves = L::set1(1.5f);
   const V plus1 = L::band(L::gt(q, half), L::lt(q, threeHalves));

@@ -22,11 +22,14 @@ enum class RngPurpose : std::uint32_t {
   kBaseline = 8,       // eval: the Ornstein-Uhlenbeck baseline swarm (eval/baseline.hpp)
 };
 
+// Philox4x32's round multipliers and key increments (also core/rng_lanes.cpp's, on lanes)
+inline constexpr std::uint32_t kPhiloxM0 = 0xD2511F53u, kPhiloxM1 = 0xCD9E8D57u;
+inline constexpr std::uint32_t kPhiloxW0 = 0x9E3779B9u, kPhiloxW1 = 0xBB67AE85u;
+
 namespace detail {
 inline void philoxRound(std::array<std::uint32_t, 4>& c, const std::array<std::uint32_t, 2>& k) {
-  constexpr std::uint64_t kM0 = 0xD2511F53u, kM1 = 0xCD9E8D57u;
-  const std::uint64_t p0 = kM0 * c[0];
-  const std::uint64_t p1 = kM1 * c[2];
+  const std::uint64_t p0 = std::uint64_t{kPhiloxM0} * c[0];
+  const std::uint64_t p1 = std::uint64_t{kPhiloxM1} * c[2];
   c = {static_cast<std::uint32_t>(p1 >> 32) ^ c[1] ^ k[0], static_cast<std::uint32_t>(p1),
        static_cast<std::uint32_t>(p0 >> 32) ^ c[3] ^ k[1], static_cast<std::uint32_t>(p0)};
 }
@@ -37,8 +40,8 @@ inline std::array<std::uint32_t, 4> philox4x32(std::array<std::uint32_t, 4> ctr,
   std::array<std::uint32_t, 2> key = {static_cast<std::uint32_t>(seed), static_cast<std::uint32_t>(seed >> 32)};
   for (int round = 0; round < 10; ++round) {
     if (round > 0) {
-      key[0] += 0x9E3779B9u;
-      key[1] += 0xBB67AE85u;
+      key[0] += kPhiloxW0;
+      key[1] += kPhiloxW1;
     }
     detail::philoxRound(ctr, key);
   }
@@ -54,12 +57,20 @@ class AgentRng {
   AgentRng(std::uint64_t seed, std::uint64_t step, std::uint32_t agent, RngPurpose purpose, std::uint32_t stream = 0)
       : seed_(seed),
         ctr_{static_cast<std::uint32_t>(step), static_cast<std::uint32_t>(step >> 32), agent,
-             (static_cast<std::uint32_t>(purpose) << 24) ^ (stream << 8)} {}
+             firstWord3(purpose, stream)} {}
+
+  // word 3 of a stream's first block
+  static constexpr std::uint32_t firstWord3(RngPurpose purpose, std::uint32_t stream) {
+    return (static_cast<std::uint32_t>(purpose) << 24) ^ (stream << 8);
+  }
+  // a random word's uniform in [0, 1): its top 24 bits, exactly
+  static constexpr float kUniformScale = 1.0f / 16777216.0f;
+  static constexpr int kUniformShift = 8;
 
   // uniform in [0, 1)
   float uniform() {
     if (used_ == 4) refill();
-    return static_cast<float>(words_[used_++] >> 8) * (1.0f / 16777216.0f);
+    return static_cast<float>(words_[used_++] >> kUniformShift) * kUniformScale;
   }
   // uniform in [a, b)
   float uniform(float a, float b) { return a + (b - a) * uniform(); }

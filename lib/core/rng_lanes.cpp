@@ -6,9 +6,6 @@ namespace swarmsim {
 
 namespace {
 
-constexpr std::uint32_t kM0 = 0xD2511F53u, kM1 = 0xCD9E8D57u;  // Philox4x32's multipliers (core/rng.hpp)
-constexpr std::uint32_t kW0 = 0x9E3779B9u, kW1 = 0xBB67AE85u;  // and its key increments
-
 void firstUniformsScalar(std::uint64_t seed, std::uint64_t step, const std::uint32_t* ids, std::size_t first,
                          std::size_t m, RngPurpose purpose, std::uint32_t stream, float* const out[4]) {
   for (std::size_t i = first; i < m; ++i) {
@@ -28,12 +25,12 @@ __attribute__((always_inline)) inline void philoxRounds(typename W::I c[4], std:
   std::uint32_t k0 = static_cast<std::uint32_t>(seed), k1 = static_cast<std::uint32_t>(seed >> 32);
   for (int round = 0; round < 10; ++round) {
     if (round > 0) {
-      k0 += kW0;
-      k1 += kW1;
+      k0 += kPhiloxW0;
+      k1 += kPhiloxW1;
     }
     I hi0, lo0, hi1, lo1;
-    W::mulHiLo(c[0], kM0, hi0, lo0);
-    W::mulHiLo(c[2], kM1, hi1, lo1);
+    W::mulHiLo(c[0], kPhiloxM0, hi0, lo0);
+    W::mulHiLo(c[2], kPhiloxM1, hi1, lo1);
     c[0] = W::xorKey(hi1, c[1], k0);
     c[1] = lo1;
     c[2] = W::xorKey(hi0, c[3], k1);
@@ -82,16 +79,17 @@ SWARMSIM_AVX512 __attribute__((flatten)) std::size_t firstUniformsAvx512(std::ui
                                                                          const std::uint32_t* ids, std::size_t m,
                                                                          std::uint32_t word3, float* const out[4]) {
   using W = Philox16;
-  const __m512 scale = _mm512_set1_ps(1.0f / 16777216.0f);
+  const __m512 scale = _mm512_set1_ps(AgentRng::kUniformScale);
   for (std::size_t i = 0; i < m; i += 16) {
-    const auto live = static_cast<__mmask16>(m - i >= 16 ? 0xffffu : (1u << (m - i)) - 1u);
+    const auto live = static_cast<__mmask16>(firstLanes(m - i, 16));
     W::I c[4] = {W::set1(static_cast<std::uint32_t>(step)),
                  W::set1(static_cast<std::uint32_t>(step >> 32)),
                  {_mm512_maskz_loadu_epi32(live, ids + i)},
                  W::set1(word3)};
     philoxRounds<W>(c, seed);
     for (int w = 0; w < 4; ++w) {
-      const __m512i top = _mm512_maskz_srli_epi32(0xffff, c[w].a, 8);  // (24 bits: converted exactly)
+      const __m512i top =
+          _mm512_maskz_srli_epi32(0xffff, c[w].a, AgentRng::kUniformShift);  // (24 bits: converted exactly)
       _mm512_mask_storeu_ps(out[w] + i, live, _mm512_mul_ps(_mm512_maskz_cvtepi32_ps(0xffff, top), scale));
     }
   }
@@ -102,7 +100,7 @@ SWARMSIM_AVX2 __attribute__((flatten)) std::size_t firstUniformsAvx2(std::uint64
                                                                      const std::uint32_t* ids, std::size_t m,
                                                                      std::uint32_t word3, float* const out[4]) {
   using W = Philox8;
-  const __m256 scale = _mm256_set1_ps(1.0f / 16777216.0f);
+  const __m256 scale = _mm256_set1_ps(AgentRng::kUniformScale);
   std::size_t i = 0;
   for (; i + 8 <= m; i += 8) {
     W::I c[4] = {W::set1(static_cast<std::uint32_t>(step)),
@@ -111,7 +109,8 @@ SWARMSIM_AVX2 __attribute__((flatten)) std::size_t firstUniformsAvx2(std::uint64
                  W::set1(word3)};
     philoxRounds<W>(c, seed);
     for (int w = 0; w < 4; ++w) {
-      _mm256_storeu_ps(out[w] + i, _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_srli_epi32(c[w].a, 8)), scale));
+      _mm256_storeu_ps(out[w] + i,
+                       _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_srli_epi32(c[w].a, AgentRng::kUniformShift)), scale));
     }
   }
   return i;
@@ -123,7 +122,7 @@ SWARMSIM_AVX2 __attribute__((flatten)) std::size_t firstUniformsAvx2(std::uint64
 void firstUniforms(std::uint64_t seed, std::uint64_t step, const std::uint32_t* ids, std::size_t m, RngPurpose purpose,
                    std::uint32_t stream, float* const out[4], LaneSet lanes) {
   // word 3 of block 0 (AgentRng's counter layout)
-  const std::uint32_t word3 = (static_cast<std::uint32_t>(purpose) << 24) ^ (stream << 8);
+  const std::uint32_t word3 = AgentRng::firstWord3(purpose, stream);
   std::size_t done = 0;
 #if SWARMSIM_X86_LANES
   if (lanes == LaneSet::kAvx512) {

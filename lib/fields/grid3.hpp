@@ -89,26 +89,32 @@ struct Grid3 {
       sy_ = g.n[1] > 1 ? nx_ : 0;
       sz_ = g.n[2] > 1 ? nx_ * ny_ : 0;
     }
-    T operator()(const Vec3& p) const { return blend(corners(p)); }
+    T operator()(const Vec3& p) const { return blendAt(corners(p)); }
 
-    // the constants, for batch samplers that compute base() on lanes (fields/sample_batch.hpp)
+    // A sample's base cell (flat index) and its weights: f toward the next cell along each axis, g = 1 − f.
+    // cornersOf makes them from the base cells along the axes and f (base()'s results); blendAt() blends them. A
+    // batch sampler (fields/sample_batch.hpp) finds base() of many points on lanes, then takes these.
+    struct Corners {
+      std::size_t b;
+      float f[3], g[3];
+    };
+    Corners cornersOf(const std::size_t i0[3], const float f[3]) const {
+      Corners c;
+      for (int a = 0; a < 3; ++a) {
+        c.f[a] = f[a];
+        c.g[a] = 1.0f - f[a];
+      }
+      c.b = (i0[2] * ny_ + i0[1]) * nx_ + i0[0];
+      return c;
+    }
+    T blendAt(const Corners& c) const { return blend(c); }
+    // base()'s constants, for the batch samplers
     struct Constants {
-      const T* data;
-      std::size_t size, nx, ny, dx, sy, sz;
       float min[3], cell[3];
       int last[3];
     };
     Constants constants() const {
-      return Constants{data_,
-                       size_,
-                       nx_,
-                       ny_,
-                       dx_,
-                       sy_,
-                       sz_,
-                       {min_[0], min_[1], min_[2]},
-                       {cell_[0], cell_[1], cell_[2]},
-                       {last_[0], last_[1], last_[2]}};
+      return {{min_[0], min_[1], min_[2]}, {cell_[0], cell_[1], cell_[2]}, {last_[0], last_[1], last_[2]}};
     }
 
     // the base cell along axis a of a sample at coordinate x (it reads cells base and base + 1), and f, the
@@ -130,20 +136,11 @@ struct Grid3 {
     }
 
    private:
-    // a sample's base cell (flat index) and its weights: f toward the next cell along each axis, g = 1 − f
-    struct Corners {
-      std::size_t b;
-      float f[3], g[3];
-    };
     Corners corners(const Vec3& p) const {
-      Corners c;
       std::size_t i0[3];
-      for (int a = 0; a < 3; ++a) {
-        i0[a] = base(p[a], a, c.f[a]);
-        c.g[a] = 1.0f - c.f[a];
-      }
-      c.b = (i0[2] * ny_ + i0[1]) * nx_ + i0[0];
-      return c;
+      float f[3];
+      for (int a = 0; a < 3; ++a) i0[a] = base(p[a], a, f[a]);
+      return cornersOf(i0, f);
     }
     // the trilinear blend of the corners, x first, then y, then z (the neighbours along an axis of one cell:
     // offset 0)
@@ -172,9 +169,8 @@ struct Grid3 {
 // register per corner (x, y, z and a lane that is not used). A corner is read as 16 bytes, 4 past its value,
 // except at the very end of the data.
 template <>
-inline Vec3 Grid3<Vec3>::Sampler::operator()(const Vec3& p) const {
+inline Vec3 Grid3<Vec3>::Sampler::blendAt(const Corners& c) const {
   static_assert(sizeof(Vec3) == 12, "a Vec3 is three packed floats");
-  const Corners c = corners(p);
   const std::size_t b = c.b, dx = dx_, sy = sy_, sz = sz_;
   if (b + sz + sy + dx + 1 >= size_) return blend(c);  // the last value: three floats only
   const float* raw = data_->data();

@@ -10,38 +10,6 @@ namespace {
 
 using Constants = Grid3<Vec3>::Sampler::Constants;
 
-inline void put(const Vec3& v, float* out) {
-  out[0] = v.x();
-  out[1] = v.y();
-  out[2] = v.z();
-}
-
-// the blend of Grid3<Vec3>::Sampler::operator() (its SSE form) for a base cell b with fractions f and g = 1 - f,
-// to out[0..2] (out[3]: anything)
-inline void blendAt(const Constants& c, const Grid3<Vec3>::Sampler& s, const Vec3& p, std::size_t b, const float f[3],
-                    const float g[3], float* out) {
-  if (b + c.sz + c.sy + c.dx + 1 >= c.size) {  // the last value: the sampler's own path
-    put(s(p), out);
-    return;
-  }
-#if defined(__SSE2__)
-  const float* raw = c.data->data();
-  const auto at = [&](std::size_t i) { return _mm_loadu_ps(raw + 3 * i); };
-  const auto lerp = [](__m128 u, __m128 v, float gw, float fw) {
-    return _mm_add_ps(_mm_mul_ps(u, _mm_set1_ps(gw)), _mm_mul_ps(v, _mm_set1_ps(fw)));
-  };
-  const std::size_t dx = c.dx, sy = c.sy, sz = c.sz;
-  const __m128 c00 = lerp(at(b), at(b + dx), g[0], f[0]);
-  const __m128 c10 = lerp(at(b + sy), at(b + sy + dx), g[0], f[0]);
-  const __m128 c01 = lerp(at(b + sz), at(b + sz + dx), g[0], f[0]);
-  const __m128 c11 = lerp(at(b + sz + sy), at(b + sz + sy + dx), g[0], f[0]);
-  const __m128 r = lerp(lerp(c00, c10, g[1], f[1]), lerp(c01, c11, g[1], f[1]), g[2], f[2]);
-  _mm_storeu_ps(out, r);
-#else
-  put(s(p), out);
-#endif
-}
-
 #if SWARMSIM_X86_LANES
 // Sampler::base on eight coordinates of axis a: the cells as integers, the fractions f
 SWARMSIM_AVX inline void basesAvx(const Constants& c, int a, const float* x, std::int32_t* cell, float* f) {
@@ -72,7 +40,7 @@ SWARMSIM_AVX inline void basesAvx(const Constants& c, int a, const float* x, std
 }
 
 SWARMSIM_AVX __attribute__((flatten)) void sampleAvx(const Grid3<Vec3>::Sampler& s, const float* x, const float* y,
-                                                     const float* z, std::size_t n, float (*out)[4]) {
+                                                     const float* z, std::size_t n, Vec3* out) {
   const Constants c = s.constants();
   std::size_t i = 0;
   for (; i + 8 <= n; i += 8) {
@@ -82,22 +50,20 @@ SWARMSIM_AVX __attribute__((flatten)) void sampleAvx(const Grid3<Vec3>::Sampler&
     basesAvx(c, 1, y + i, cell[1], f[1]);
     basesAvx(c, 2, z + i, cell[2], f[2]);
     for (int l = 0; l < 8; ++l) {
-      const std::size_t b =
-          (static_cast<std::size_t>(cell[2][l]) * c.ny + static_cast<std::size_t>(cell[1][l])) * c.nx +
-          static_cast<std::size_t>(cell[0][l]);
+      const std::size_t i0[3] = {static_cast<std::size_t>(cell[0][l]), static_cast<std::size_t>(cell[1][l]),
+                                 static_cast<std::size_t>(cell[2][l])};
       const float fl[3] = {f[0][l], f[1][l], f[2][l]};
-      const float gl[3] = {1.0f - fl[0], 1.0f - fl[1], 1.0f - fl[2]};
-      blendAt(c, s, Vec3(x[i + l], y[i + l], z[i + l]), b, fl, gl, out[i + l]);
+      out[i + l] = s.blendAt(s.cornersOf(i0, fl));
     }
   }
-  for (; i < n; ++i) put(s(Vec3(x[i], y[i], z[i])), out[i]);
+  for (; i < n; ++i) out[i] = s(Vec3(x[i], y[i], z[i]));
 }
 #endif
 
 }  // namespace
 
 void sampleBatch(const Grid3<Vec3>::Sampler& s, const float* x, const float* y, const float* z, std::size_t n,
-                 float (*out)[4], LaneSet lanes) {
+                 Vec3* out, LaneSet lanes) {
 #if SWARMSIM_X86_LANES
   if (lanes != LaneSet::kSse) {
     sampleAvx(s, x, y, z, n, out);
@@ -106,7 +72,7 @@ void sampleBatch(const Grid3<Vec3>::Sampler& s, const float* x, const float* y, 
 #else
   (void)lanes;
 #endif
-  for (std::size_t i = 0; i < n; ++i) put(s(Vec3(x[i], y[i], z[i])), out[i]);
+  for (std::size_t i = 0; i < n; ++i) out[i] = s(Vec3(x[i], y[i], z[i]));
 }
 
 }  // namespace swarmsim

@@ -10,9 +10,9 @@
 
 namespace swarmsim {
 
-// out[i][0..2] = s(Vec3(x[i], y[i], z[i])) for i < n (out[i][3]: anything; one 16-byte store a point).
+// out[i] = s(Vec3(x[i], y[i], z[i])) for i < n.
 // `lanes`: laneSet() (AVX or wider: eight points at a time)
 void sampleBatch(const Grid3<Vec3>::Sampler& s, const float* x, const float* y, const float* z, std::size_t n,
-                 float (*out)[4], LaneSet lanes);
+                 Vec3* out, LaneSet lanes);
 
 }  // namespace swarmsim

@@ -50,43 +50,32 @@ class Boids final : public Model {
     });
 
     const float dt = static_cast<float>(world.dt);
+    // the update's parameters (boids_update.hpp)
     const double alpha = p_.responseTime > 0.0 ? 1.0 - std::exp(-world.dt / p_.responseTime) : 1.0;
-    const float blend = static_cast<float>(alpha);
-    const float noise = static_cast<float>(p_.jitter * std::sqrt((2.0 - alpha) / alpha));
-    const float invCr = p_.centeringRadius > 0.0 ? static_cast<float>(1.0 / p_.centeringRadius) : 0.0f;
-    const Vec3 center = p_.center.cast<float>();
-    const Vec3 dmin = world.domain.min.cast<float>(), dmax = world.domain.max.cast<float>();
-    const float margin = static_cast<float>(p_.wallMargin);
+    BoidsUpdateParams up;
+    up.smin = static_cast<float>(p_.speed);
+    up.smax = static_cast<float>(p_.maxSpeed);
+    up.fr = static_cast<float>(p_.repulsion);
+    up.fa = static_cast<float>(p_.alignment);
+    up.ft = static_cast<float>(p_.attraction);
+    up.fc = static_cast<float>(p_.centering);
+    up.invCr = p_.centeringRadius > 0.0 ? static_cast<float>(1.0 / p_.centeringRadius) : 0.0f;
+    up.fw = static_cast<float>(p_.wallForce);
+    up.margin = static_cast<float>(p_.wallMargin);
+    up.blend = static_cast<float>(alpha);
+    up.noise = static_cast<float>(p_.jitter * std::sqrt((2.0 - alpha) / alpha));
+    up.center = p_.center.cast<float>();
+    up.lo = world.domain.min.cast<float>();
+    up.hi = world.domain.max.cast<float>();
 
-    // phase 1: every new velocity from the old state. Each agent scans the grid rows about it, eight
-    // candidates at a time (boids_kernel.hpp)
+    // phase 1: the neighbour sums of a row of cells (boids_kernel.hpp), then phase 2: the row's new velocities,
+    // in place (neighbours read the unit velocities' copy), eight agents at a time (boids_update.hpp)
     const BoidsZones zones = {r1_ * r1_, r2_ * r2_, r3_ * r3_, cosHalfFov_};
-    const float smin = static_cast<float>(p_.speed), smax = static_cast<float>(p_.maxSpeed);
-    const float fr = static_cast<float>(p_.repulsion), fa = static_cast<float>(p_.alignment);
-    const float ft = static_cast<float>(p_.attraction), fc = static_cast<float>(p_.centering);
-    const float fw = static_cast<float>(p_.wallForce);
     const bool jitter = p_.jitter > 0.0;
     const std::uint64_t seed = world.seed, stepIndex = info.step;
     const std::uint32_t swarmIndex = info.swarmIndex;
     const LaneSet laneKind = laneSet();
     scratch_.resize(static_cast<std::size_t>(threadCount()));
-    // phase 2 (a row of cells at a time, right after its sums): the new velocities, in place (neighbours read the
-    // unit velocities' copy), eight agents at a time (boids_update.hpp)
-    BoidsUpdateParams up;
-    up.smin = smin;
-    up.smax = smax;
-    up.fr = fr;
-    up.fa = fa;
-    up.ft = ft;
-    up.fc = fc;
-    up.invCr = invCr;
-    up.fw = fw;
-    up.margin = margin;
-    up.blend = blend;
-    up.noise = noise;
-    up.center = center;
-    up.lo = dmin;
-    up.hi = dmax;
     const std::size_t nx = static_cast<std::size_t>(grid_.dim(0));
     // row by row of cells (the neighbouring rows found once per row), cell by cell along it; a row's agents are
     // the sorted positions [first, last)
@@ -100,9 +89,8 @@ class Boids final : public Model {
       for (std::size_t a = 0; a < 9; ++a) sums[a] = scratch.sums.data() + a * m;
       grid_.forEachCellOfRow(rowIndex, r3_, scratch.runs, [&](std::size_t c, const std::uint32_t* runs, std::size_t nRuns) {
         const std::uint32_t a0 = grid_.cellBegin(c), a1 = grid_.cellEnd(c);
-        float* const at[9] = {sums[0] + (a0 - first), sums[1] + (a0 - first), sums[2] + (a0 - first),
-                              sums[3] + (a0 - first), sums[4] + (a0 - first), sums[5] + (a0 - first),
-                              sums[6] + (a0 - first), sums[7] + (a0 - first), sums[8] + (a0 - first)};
+        float* at[9];
+        for (std::size_t a = 0; a < 9; ++a) at[a] = sums[a] + (a0 - first);
         boidsCellSums(lanes_, a0, a1, runs, nRuns, zones, laneKind, scratch, at);
       });
       // the jitter's four uniforms of each agent, from its own stream (by id: the same draw on any thread)

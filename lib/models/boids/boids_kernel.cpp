@@ -126,7 +126,7 @@ struct CopyAvx512 {
                                   std::size_t at) {
     const float* from[6] = {in.x, in.y, in.z, in.ux.data(), in.uy.data(), in.uz.data()};
     for (std::uint32_t j = b; j < e; j += 16) {
-      const auto live = static_cast<__mmask16>(e - j >= 16 ? 0xffffu : (1u << (e - j)) - 1u);
+      const auto live = static_cast<__mmask16>(firstLanes(e - j, 16));
       for (int c = 0; c < 6; ++c) _mm512_storeu_ps(a[c] + at + (j - b), _mm512_maskz_loadu_ps(live, from[c] + j));
     }
   }

@@ -251,12 +251,11 @@ class FieldModel final : public Model {
     // each thread's agents in blocks: the combined field's samples of a block first, eight at a time
     parallelChunks(n, [&](std::size_t first, std::size_t last, int) {
       constexpr std::size_t kBlock = 64;
-      alignas(16) float fieldV[kBlock][4];
+      Vec3 fieldV[kBlock];
       for (std::size_t b = first; b < last; b += kBlock) {
         const std::size_t m = std::min(kBlock, last - b);
         if (combinedOk_) sampleBatch(combined, s.px.data() + b, s.py.data() + b, s.pz.data() + b, m, fieldV, lanes);
-        for (std::size_t i = b; i < b + m; ++i)
-          agent(i, combinedOk_ ? Vec3(fieldV[i - b][0], fieldV[i - b][1], fieldV[i - b][2]) : Vec3::Zero());
+        for (std::size_t i = b; i < b + m; ++i) agent(i, combinedOk_ ? fieldV[i - b] : Vec3::Zero());
       }
 #if defined(__SSE2__)
       _mm_sfence();  // (the streamed records visible to every thread before the next loop)
@@ -274,13 +273,6 @@ class FieldModel final : public Model {
     float *const nextVx = next_.vx.data(), *const nextVy = next_.vy.data(), *const nextVz = next_.vz.data();
     std::uint32_t* const nextId = next_.id.data();
     const ObstacleClearance& clearance = clearance_;
-    const auto settle = [&](std::size_t k, Vec3 x) {
-      x = clearance.apply(x);
-      x = x.cwiseMax(lo).cwiseMin(hi);
-      nextPx[k] = x.x();
-      nextPy[k] = x.y();
-      nextPz[k] = x.z();
-    };
     std::size_t moved = 0;
     if (p_.minDistance > 0.0 && n > 1) {
       const float md = static_cast<float>(p_.minDistance);
@@ -365,32 +357,38 @@ class FieldModel final : public Model {
         const float* sx = grid_.sortedX().data();
         const float* sy = grid_.sortedY().data();
         const float* sz = grid_.sortedZ().data();
-        parallelFor(n, [&](std::size_t k) {
-          const std::uint32_t i = order[k];
-          MdePush kernel(md);
-          kernel.start(sx[k], sy[k], sz[k]);
-          grid_.forEachRun(sx[k], sy[k], sz[k], md,
-                           [&](std::uint32_t b, std::uint32_t e) { kernel.add(sx, sy, sz, b, e); });
-          Vec3 push = kernel.push();
-          bool pushed = kernel.hits() > 0;
-          if (kernel.zeros() > 1) {
-            // an exactly coincident neighbour (rare): coincident agents separate
-            // along x, ordered by id, on top of the kernel's other pushes
-            const auto fromCoincident = [&](std::uint32_t j, float dx, float dy, float dz) {
-              if (j == k || dx != 0.0f || dy != 0.0f || dz != 0.0f) return;
-              push.x() += (s.id[i] < s.id[order[j]] ? -0.5f : 0.5f) * md;
-              pushed = true;
-            };
-            grid_.forEachNeighbor(
-                sx[k], sy[k], sz[k], 0.0f,
-                [&](std::uint32_t j, float dx, float dy, float dz, float) { fromCoincident(j, dx, dy, dz); });
+        // each thread's range of agents, then their settling (clearance and the domain) together
+        parallelChunks(n, [&](std::size_t first, std::size_t last, int) {
+          for (std::size_t k = first; k < last; ++k) {
+            const std::uint32_t i = order[k];
+            MdePush kernel(md);
+            kernel.start(sx[k], sy[k], sz[k]);
+            grid_.forEachRun(sx[k], sy[k], sz[k], md,
+                             [&](std::uint32_t b, std::uint32_t e) { kernel.add(sx, sy, sz, b, e); });
+            Vec3 push = kernel.push();
+            bool pushed = kernel.hits() > 0;
+            if (kernel.zeros() > 1) {
+              // an exactly coincident neighbour (rare): coincident agents separate
+              // along x, ordered by id, on top of the kernel's other pushes
+              const auto fromCoincident = [&](std::uint32_t j, float dx, float dy, float dz) {
+                if (j == k || dx != 0.0f || dy != 0.0f || dz != 0.0f) return;
+                push.x() += (s.id[i] < s.id[order[j]] ? -0.5f : 0.5f) * md;
+                pushed = true;
+              };
+              grid_.forEachNeighbor(
+                  sx[k], sy[k], sz[k], 0.0f,
+                  [&](std::uint32_t j, float dx, float dy, float dz, float) { fromCoincident(j, dx, dy, dz); });
+            }
+            movedFlag_[k] = pushed ? 1 : 0;
+            nextId[k] = carried_[i].id;
+            nextPx[k] = sx[k] + push.x();
+            nextPy[k] = sy[k] + push.y();
+            nextPz[k] = sz[k] + push.z();
+            nextVx[k] = carried_[i].vx;
+            nextVy[k] = carried_[i].vy;
+            nextVz[k] = carried_[i].vz;
           }
-          movedFlag_[k] = pushed ? 1 : 0;
-          nextId[k] = carried_[i].id;
-          settle(k, Vec3(sx[k], sy[k], sz[k]) + push);
-          nextVx[k] = carried_[i].vx;
-          nextVy[k] = carried_[i].vy;
-          nextVz[k] = carried_[i].vz;
+          clearance.settle(nextPx + first, nextPy + first, nextPz + first, last - first, lo, hi, lanes);
         });
       }
       std::vector<std::size_t>& counts = movedCounts_;
@@ -402,12 +400,18 @@ class FieldModel final : public Model {
       });
       for (const std::size_t c : counts) moved += c;
     } else {
-      parallelFor(n, [&](std::size_t i) {
-        nextId[i] = carried_[i].id;
-        settle(i, Vec3(nx_[i], ny_[i], nz_[i]));
-        nextVx[i] = carried_[i].vx;
-        nextVy[i] = carried_[i].vy;
-        nextVz[i] = carried_[i].vz;
+      parallelChunks(n, [&](std::size_t first, std::size_t last, int) {
+        for (std::size_t i = first; i < last; ++i) {
+          const Carried& r = carried_[i];
+          nextId[i] = r.id;
+          nextPx[i] = r.x;
+          nextPy[i] = r.y;
+          nextPz[i] = r.z;
+          nextVx[i] = r.vx;
+          nextVy[i] = r.vy;
+          nextVz[i] = r.vz;
+        }
+        clearance.settle(nextPx + first, nextPy + first, nextPz + first, last - first, lo, hi, lanes);
       });
     }
 
@@ -491,7 +495,9 @@ class FieldModel final : public Model {
   std::vector<float> nx_, ny_, nz_;
   // what an agent carries from phase 1 into the state in grid order: its tentative position, id and velocity in
   // one 32-byte record, so that same_cell's gather in grid order reads half a cache line per agent (its grid
-  // keeps no sorted copies of the positions)
+  // keeps no sorted copies of the positions). The tentative positions are also in nx_/ny_/nz_, the arrays the
+  // grid's build reads; reading them from the records instead would move 32 bytes per agent, twice, where
+  // the arrays move 12.
   struct alignas(32) Carried {
     float x, y, z;  // the tentative position
     std::uint32_t id;

@@ -9,26 +9,6 @@ namespace {
 // the pair lists are flushed to the second pass when fewer than a chunk's entries remain free
 constexpr std::size_t kListSize = 256;
 
-// for each 8-bit mask, the lane numbers of its set bits in ascending order (then zeros): the compaction of a
-// chunk's close pairs
-struct CompactTable {
-  alignas(64) std::uint8_t at[256][8];
-};
-constexpr CompactTable makeCompactTable() {
-  CompactTable t{};
-  for (unsigned m = 0; m < 256; ++m) {
-    unsigned n = 0;
-    for (unsigned l = 0; l < 8; ++l) {
-      if ((m >> l) & 1u) t.at[m][n++] = static_cast<std::uint8_t>(l);
-    }
-  }
-  return t;
-}
-constexpr CompactTable kCompact = makeCompactTable();
-
-// lanes 0 .. count-1 of a chunk (count >= 1)
-inline unsigned firstOf(std::uint32_t count) { return 0xffu >> (8u - (count < 8u ? count : 8u)); }
-
 // the second pass: the listed pairs (k, j), k < j, in the list's order
 inline void listedPushes(const float* x, const float* y, const float* z, const std::uint32_t* ks,
                          const std::uint32_t* js, std::size_t count, float md, float md2, float* px, float* py,
@@ -55,8 +35,8 @@ inline void listedPushes(const float* x, const float* y, const float* z, const s
   }
 }
 
-// compact(kOut, out, k, j, m): writes j + the lane numbers of m's set bits to out[0 ..] and k beside each to
-// kOut[0 ..] (eight entries written to each), and returns how many are set
+// compact(kOut, out, k, j, m) (core/lanes.hpp's kLanePack): writes j + the lane numbers of m's set bits to out[0 ..]
+// and k beside each to kOut[0 ..] (eight entries written to each), and returns how many are set
 template <class L, class Compact>
 inline bool cellPairs(const float* x, const float* y, const float* z, std::uint32_t b, std::uint32_t e, float md,
                       float* px, float* py, float* pz, std::int32_t* hits, Compact compact) {
@@ -72,7 +52,7 @@ inline bool cellPairs(const float* x, const float* y, const float* z, std::uint3
       const typename L::V dx = L::sub(L::load(x + j), qx), dy = L::sub(L::load(y + j), qy);
       const typename L::V dz = L::sub(L::load(z + j), qz);
       const typename L::V d2 = L::add(L::add(L::mul(dx, dx), L::mul(dy, dy)), L::mul(dz, dz));
-      n += compact(ks + n, js + n, k, j, L::mask(L::lt(d2, close2)) & firstOf(e - j));
+      n += compact(ks + n, js + n, k, j, L::mask(L::lt(d2, close2)) & firstLanes(e - j, 8));
       if (n > kListSize - 8) {
         listedPushes(x, y, z, ks, js, n, md, md2, px, py, pz, hits, coincident);
         n = 0;
@@ -90,11 +70,8 @@ SWARMSIM_AVX2 __attribute__((flatten)) bool cellPairsAvx2(const float* x, const 
   return cellPairs<AvxLanes>(
       x, y, z, b, e, md, px, py, pz, hits,
       [](std::uint32_t* kOut, std::uint32_t* out, std::uint32_t k, std::uint32_t j, unsigned m) SWARMSIM_AVX2 {
-        const __m256i at = _mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(kCompact.at[m])));
         _mm256_storeu_si256(reinterpret_cast<__m256i*>(kOut), _mm256_set1_epi32(static_cast<int>(k)));
-        _mm256_storeu_si256(reinterpret_cast<__m256i*>(out),
-                            _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(j)), at));
-        return static_cast<std::size_t>(__builtin_popcount(m));
+        return packLaneIndices(j, m, out);
       });
 }
 using PortableLanes = SseLanes;
@@ -109,7 +86,7 @@ bool cellPairsPortable(const float* x, const float* y, const float* z, std::uint
       [](std::uint32_t* kOut, std::uint32_t* out, std::uint32_t k, std::uint32_t j, unsigned m) {
         for (unsigned l = 0; l < 8; ++l) {
           kOut[l] = k;
-          out[l] = j + kCompact.at[m][l];
+          out[l] = j + kLanePack.lanes[m][l];
         }
         return static_cast<std::size_t>(laneCount(m));
       });
