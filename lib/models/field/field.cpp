@@ -273,6 +273,13 @@ class FieldModel final : public Model {
     float *const nextVx = next_.vx.data(), *const nextVy = next_.vy.data(), *const nextVz = next_.vz.data();
     std::uint32_t* const nextId = next_.id.data();
     const ObstacleClearance& clearance = clearance_;
+    // an agent's id and velocity, unchanged from phase 1, at its place k in the next state
+    const auto carry = [&](std::size_t k, const Carried& r) {
+      nextId[k] = r.id;
+      nextVx[k] = r.vx;
+      nextVy[k] = r.vy;
+      nextVz[k] = r.vz;
+    };
     std::size_t moved = 0;
     if (p_.minDistance > 0.0 && n > 1) {
       const float md = static_cast<float>(p_.minDistance);
@@ -315,10 +322,7 @@ class FieldModel final : public Model {
             gx[q] = r.x;
             gy[q] = r.y;
             gz[q] = r.z;
-            nextId[k] = r.id;
-            nextVx[k] = r.vx;
-            nextVy[k] = r.vy;
-            nextVz[k] = r.vz;
+            carry(k, r);
           }
           for (std::size_t c = c0; c < c1; ++c) {
             const std::uint32_t b = grid_.cellBegin(c) - first, e = grid_.cellEnd(c) - first;
@@ -380,13 +384,10 @@ class FieldModel final : public Model {
                   [&](std::uint32_t j, float dx, float dy, float dz, float) { fromCoincident(j, dx, dy, dz); });
             }
             movedFlag_[k] = pushed ? 1 : 0;
-            nextId[k] = carried_[i].id;
+            carry(k, carried_[i]);
             nextPx[k] = sx[k] + push.x();
             nextPy[k] = sy[k] + push.y();
             nextPz[k] = sz[k] + push.z();
-            nextVx[k] = carried_[i].vx;
-            nextVy[k] = carried_[i].vy;
-            nextVz[k] = carried_[i].vz;
           }
           clearance.settle(nextPx + first, nextPy + first, nextPz + first, last - first, lo, hi, lanes);
         });
@@ -403,13 +404,10 @@ class FieldModel final : public Model {
       parallelChunks(n, [&](std::size_t first, std::size_t last, int) {
         for (std::size_t i = first; i < last; ++i) {
           const Carried& r = carried_[i];
-          nextId[i] = r.id;
+          carry(i, r);
           nextPx[i] = r.x;
           nextPy[i] = r.y;
           nextPz[i] = r.z;
-          nextVx[i] = r.vx;
-          nextVy[i] = r.vy;
-          nextVz[i] = r.vz;
         }
         clearance.settle(nextPx + first, nextPy + first, nextPz + first, last - first, lo, hi, lanes);
       });
