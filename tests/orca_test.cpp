@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <memory>
 #include <numeric>
 #include <random>
 #include <stdexcept>
@@ -149,6 +150,12 @@ float maxViolation(const std::vector<Plane>& planes, std::size_t from, std::size
     worst = std::max(worst, planes[i].b - (planes[i].nx * v.x() + planes[i].ny * v.y() + planes[i].nz * v.z()));
   }
   return worst;
+}
+
+std::uint32_t bitsOf(float f) {
+  std::uint32_t u;
+  std::memcpy(&u, &f, sizeof u);
+  return u;
 }
 
 Vec3 randomUnit(std::mt19937& rng) {
@@ -416,6 +423,76 @@ TEST_CASE("orca: infeasible programs minimise the worst violation, obstacle plan
   CHECK(v.z() >= -1e-4f);
   CHECK(v.y() > 0.0f);  // and then towards the agent plane, as far as the obstacles allow
   CHECK(v.y() < 0.05f);
+}
+
+TEST_CASE("orca: the programs of eight agents on lanes give solveVelocity's bits, on every lane set", "[orca]") {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  const float R = 2.0f;
+  const std::size_t stride = 30;
+  std::size_t infeasible = 0, compared = 0, subProblems = 0;
+  for (int instance = 0; instance < 400; ++instance) {
+    // groups of 1 to 19 agents (more than one lane group), each with its own count of planes, some of them
+    // obstacles; the mixes give feasible programs, programs that need the plane and line sub-problems, and
+    // infeasible ones (the fallback), with parallel and coincident planes now and then
+    const auto agents = static_cast<std::size_t>(1 + instance % 19);
+    std::vector<Plane> planes(agents * stride), scratch(stride);
+    std::vector<std::size_t> count(agents), hard(agents);
+    std::vector<Vec3> pref(agents);
+    for (std::size_t a = 0; a < agents; ++a) {
+      count[a] = static_cast<std::size_t>(rng() % 25);
+      hard[a] = std::min(count[a], static_cast<std::size_t>(rng() % 3));
+      const Vec3 v0 = randomInBall(rng, 0.9f * R);
+      const float spread = instance % 4 == 0 ? 3.0f * R : 0.6f;
+      for (std::size_t i = 0; i < count[a]; ++i) {
+        Vec3 n = randomUnit(rng);
+        if (i > 0 && rng() % 8 == 0) {
+          const Plane& o = planes[a * stride + i - 1];
+          n = Vec3(o.nx, o.ny, o.nz) * (rng() % 2 ? 1.0f : -1.0f);  // parallel to the one before
+        }
+        planes[a * stride + i] = {n.x(), n.y(), n.z(), n.dot(v0) - spread * (u(rng) - 0.3f)};
+      }
+      pref[a] = randomInBall(rng, 1.5f * R);
+    }
+    std::vector<Vec3> want(agents);
+    std::vector<char> wantInfeasible(agents);
+    for (std::size_t a = 0; a < agents; ++a) {
+      std::vector<Plane> work(planes.begin() + static_cast<std::ptrdiff_t>(a * stride),
+                              planes.begin() + static_cast<std::ptrdiff_t>(a * stride + count[a]));
+      wantInfeasible[a] =
+          swarmsim::orca::solveVelocity(work.data(), count[a], hard[a], pref[a], R, scratch.data(), want[a]);
+      infeasible += wantInfeasible[a] ? 1 : 0;
+      // the preferred velocity (in the ball) violates a plane: the program goes into its sub-problems
+      const std::vector<Plane> own(planes.begin() + static_cast<std::ptrdiff_t>(a * stride),
+                                   planes.begin() + static_cast<std::ptrdiff_t>(a * stride + count[a]));
+      const Vec3 p = pref[a].norm() > R ? Vec3(pref[a] * (R / pref[a].norm())) : pref[a];
+      subProblems += maxViolation(own, 0, count[a], p) > 1e-5f ? 1 : 0;
+    }
+    for (const auto lanes :
+         {swarmsim::LaneSet::kSse, swarmsim::LaneSet::kAvx, swarmsim::LaneSet::kAvx2, swarmsim::LaneSet::kAvx512}) {
+      if (lanes > swarmsim::laneSet()) continue;
+      std::vector<Plane> work = planes;
+      std::vector<Vec3> got(agents);
+      std::unique_ptr<bool[]> gotInfeasible(new bool[agents]);
+      std::vector<float> lanesScratch;
+      const std::size_t n =
+          swarmsim::orca::solveVelocities(work.data(), stride, count.data(), hard.data(), pref.data(), agents, R,
+                                          scratch.data(), lanesScratch, got.data(), gotInfeasible.get(), lanes);
+      std::size_t expected = 0;
+      for (std::size_t a = 0; a < agents; ++a) {
+        INFO("instance " << instance << ", lanes " << static_cast<int>(lanes) << ", agent " << a << " of " << agents
+                         << ", " << count[a] << " planes");
+        CHECK(static_cast<char>(gotInfeasible[a]) == wantInfeasible[a]);
+        for (int c = 0; c < 3; ++c) CHECK(bitsOf(got[a][c]) == bitsOf(want[a][c]));
+        expected += wantInfeasible[a] ? 1 : 0;
+        ++compared;
+      }
+      CHECK(n == expected);
+    }
+  }
+  CHECK(infeasible > 200);
+  CHECK(subProblems > 1000);
+  CHECK(compared > 4000);
 }
 
 TEST_CASE("orca: two agents head-on never overlap and pass each other", "[orca]") {

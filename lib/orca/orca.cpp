@@ -10,6 +10,7 @@
 #include "core/lanes.hpp"
 #include "core/parallel.hpp"
 #include "geometry/signed_distance.hpp"
+#include "orca/lp_lanes.hpp"
 
 namespace swarmsim::orca {
 
@@ -27,11 +28,6 @@ inline float dot(F3 a, F3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 inline F3 cross(F3 a, F3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
 inline F3 normalOf(const Plane& p) { return {p.nx, p.ny, p.nz}; }
 inline Plane makePlane(F3 n, float b) { return {n.x, n.y, n.z, b}; }
-
-// A plane counts as satisfied when violated by at most this much (m/s): keeps
-// rounding (a point computed on plane j read back as 1e-7 outside it) from
-// triggering sub-problems or a spurious infeasibility. Over a 1 s step it is 10 µm.
-constexpr float kTolerance = 1e-5f;
 
 // ---- the linear programs ---------------------------------------------------
 // Maximise closeness to pref (or, with `direction`, the component along the unit
@@ -406,12 +402,11 @@ void checkParams(const Params& p, float dt) {
 
 }  // namespace
 
-bool solveVelocity(Plane* planes, std::size_t count, std::size_t hard, const Vec3& pref, float maxSpeed, Plane* scratch,
-                   Vec3& out) {
-  const F3 want{pref.x(), pref.y(), pref.z()};
-  const float R = maxSpeed;
-  F3 v;
-  std::size_t fail = ballProgram(planes, count, R, want, false, v);
+namespace {
+
+// solveVelocity after its first ball program, which gave v and fail
+bool finishVelocity(Plane* planes, std::size_t count, std::size_t hard, F3 want, float R, Plane* scratch,
+                    std::size_t fail, F3 v, Vec3& out) {
   const bool infeasible = fail < count;
   if (fail < hard) {
     // the obstacles alone conflict (e.g. deep inside one): their least worst
@@ -435,6 +430,77 @@ bool solveVelocity(Plane* planes, std::size_t count, std::size_t hard, const Vec
   if (!(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z))) v = F3{0.0f, 0.0f, 0.0f};
   out = Vec3(v.x, v.y, v.z);
   return infeasible;
+}
+
+}  // namespace
+
+bool solveVelocity(Plane* planes, std::size_t count, std::size_t hard, const Vec3& pref, float maxSpeed, Plane* scratch,
+                   Vec3& out) {
+  const F3 want{pref.x(), pref.y(), pref.z()};
+  F3 v;
+  const std::size_t fail = ballProgram(planes, count, maxSpeed, want, false, v);
+  return finishVelocity(planes, count, hard, want, maxSpeed, scratch, fail, v, out);
+}
+
+std::size_t solveVelocities(Plane* planes, std::size_t stride, const std::size_t* count, const std::size_t* hard,
+                            const Vec3* pref, std::size_t agents, float maxSpeed, Plane* scratch,
+                            std::vector<float>& lanesScratch, Vec3* out, bool* infeasible, LaneSet lanes) {
+  std::size_t infeasibleCount = 0;
+#if SWARMSIM_X86_LANES
+  if ((lanes == LaneSet::kAvx2 || lanes == LaneSet::kAvx512) && agents > 1) {
+    for (std::size_t start = 0; start < agents; start += kLpLanes) {
+      const std::size_t group = std::min(kLpLanes, agents - start);
+      std::size_t most = 0;
+      for (std::size_t l = 0; l < group; ++l) most = std::max(most, count[start + l]);
+      if (lanesScratch.size() < most * kLpPlaneFloats + 6 * kLpLanes) {
+        lanesScratch.resize(most * kLpPlaneFloats + 6 * kLpLanes);
+      }
+      float* soa = lanesScratch.data();
+      float* want = soa + most * kLpPlaneFloats;
+      float* got = want + 3 * kLpLanes;
+      for (std::size_t l = 0; l < kLpLanes; ++l) {
+        const std::size_t a = start + l;
+        const std::size_t own = l < group ? count[a] : 0;
+        const Plane* mine = planes + a * stride;
+        for (std::size_t i = 0; i < most; ++i) {
+          float* row = soa + i * kLpPlaneFloats + l;
+          if (i < own) {
+            row[0] = mine[i].nx;
+            row[kLpLanes] = mine[i].ny;
+            row[2 * kLpLanes] = mine[i].nz;
+            row[3 * kLpLanes] = mine[i].b;
+          } else {  // no velocity violates it
+            row[0] = row[kLpLanes] = row[2 * kLpLanes] = 0.0f;
+            row[3 * kLpLanes] = -std::numeric_limits<float>::infinity();
+          }
+        }
+        const Vec3 p = l < group ? pref[a] : Vec3::Zero();
+        want[l] = p.x();
+        want[kLpLanes + l] = p.y();
+        want[2 * kLpLanes + l] = p.z();
+      }
+      std::uint32_t fail[kLpLanes];
+      ballProgramLanes(soa, most, maxSpeed, want, got, fail);
+      for (std::size_t l = 0; l < group; ++l) {
+        const std::size_t a = start + l;
+        const F3 v{got[l], got[kLpLanes + l], got[2 * kLpLanes + l]};
+        infeasible[a] = finishVelocity(planes + a * stride, count[a], hard[a],
+                                       F3{want[l], want[kLpLanes + l], want[2 * kLpLanes + l]}, maxSpeed, scratch,
+                                       std::min<std::size_t>(fail[l], count[a]), v, out[a]);
+        infeasibleCount += infeasible[a] ? 1 : 0;
+      }
+    }
+    return infeasibleCount;
+  }
+#else
+  (void)lanes;
+  (void)lanesScratch;
+#endif
+  for (std::size_t a = 0; a < agents; ++a) {
+    infeasible[a] = solveVelocity(planes + a * stride, count[a], hard[a], pref[a], maxSpeed, scratch, out[a]);
+    infeasibleCount += infeasible[a] ? 1 : 0;
+  }
+  return infeasibleCount;
 }
 
 Plane agentHalfSpace(const Vec3& p, const Vec3& vi, const Vec3& vj, float radius, float timeHorizon, float dt) {
@@ -682,8 +748,8 @@ void Solver::solve(const UniformGrid& grid, const float* vx, const float* vy, co
   const std::size_t maxPlanes = K + obstacles.spheres.size() + 1;
   for (auto& t : threads_) {
     if (t.best.size() < K) t.best.resize(K);
-    if (t.planes.size() < maxPlanes) {
-      t.planes.resize(maxPlanes);
+    if (t.planes.size() < kLpLanes * maxPlanes) {
+      t.planes.resize(kLpLanes * maxPlanes);
       t.projected.resize(maxPlanes);
     }
     if (t.batch.size() < 11 * (K + 3)) t.batch.resize(11 * (K + 3));
@@ -703,66 +769,79 @@ void Solver::solve(const UniformGrid& grid, const float* vx, const float* vy, co
   const float tauO = params.timeHorizonObstacle;
   const float reach = params.maxSpeed * tauO;  // obstacles farther than r + reach cannot be hit in time
   const Grid3<float>* sdf = obstacles.sdf;
-  forEach(n, 256, [&](std::size_t k) {
+  const LaneSet lanes = laneSet();
+  // agents in groups of kLpLanes: each agent's half-spaces, then the group's programs at once
+  const std::size_t groups = (n + kLpLanes - 1) / kLpLanes;
+  forEach(groups, 32, [&](std::size_t g) {
     ThreadScratch& ts = threads_[static_cast<std::size_t>(threadIndex())];
-    Plane* planes = ts.planes.data();
-    std::size_t m = 0;
-    const F3 xi{sx[k], sy[k], sz[k]};
-    const F3 vi{vx[k], vy[k], vz[k]};
-    // obstacles first: they stay hard in the fallback
-    for (const Sphere& s : obstacles.spheres) {
-      const F3 d = xi - F3{s.center.x(), s.center.y(), s.center.z()};
-      const float dist2 = dot(d, d), far = s.radius + r + reach;
-      if (dist2 >= far * far) continue;
-      const float dist = std::sqrt(dist2);
-      const F3 nrm = dist > 0.0f ? d * (1.0f / dist) : F3{1.0f, 0.0f, 0.0f};
-      Plane pl = obstaclePlane(nrm, dist - s.radius, r, tauO, dt);
-      pl.b += nrm.x * s.velocity.x() + nrm.y * s.velocity.y() + nrm.z * s.velocity.z();  // n.(v - v_s) >= b
-      planes[m++] = pl;
-    }
-    if (sdf) {
-      const Vec3 x(xi.x, xi.y, xi.z);
-      const float phi = sdf->sample(x);
-      if (phi - r < reach) {
-        const Vec3 g = normalAt(*sdf, x);
-        if (g.squaredNorm() > 0.0f) planes[m++] = obstaclePlane(F3{g.x(), g.y(), g.z()}, phi, r, tauO, dt);
+    const std::size_t first = g * kLpLanes, agents = std::min(kLpLanes, n - first);
+    std::size_t counts[kLpLanes] = {}, hards[kLpLanes] = {};
+    Vec3 prefs[kLpLanes], outs[kLpLanes];
+    for (std::size_t a = 0; a < kLpLanes; ++a) prefs[a] = outs[a] = Vec3::Zero();
+    bool infeasible[kLpLanes];
+    for (std::size_t a = 0; a < agents; ++a) {
+      const std::size_t k = first + a;
+      Plane* planes = ts.planes.data() + a * maxPlanes;
+      std::size_t m = 0;
+      const F3 xi{sx[k], sy[k], sz[k]};
+      const F3 vi{vx[k], vy[k], vz[k]};
+      // obstacles first: they stay hard in the fallback
+      for (const Sphere& s : obstacles.spheres) {
+        const F3 d = xi - F3{s.center.x(), s.center.y(), s.center.z()};
+        const float dist2 = dot(d, d), far = s.radius + r + reach;
+        if (dist2 >= far * far) continue;
+        const float dist = std::sqrt(dist2);
+        const F3 nrm = dist > 0.0f ? d * (1.0f / dist) : F3{1.0f, 0.0f, 0.0f};
+        Plane pl = obstaclePlane(nrm, dist - s.radius, r, tauO, dt);
+        pl.b += nrm.x * s.velocity.x() + nrm.y * s.velocity.y() + nrm.z * s.velocity.z();  // n.(v - v_s) >= b
+        planes[m++] = pl;
       }
-    }
-    const std::size_t hard = m;
-    std::size_t cnt;
-    const std::uint32_t* nb = neighbors(k, cnt);
-    {
-      const std::size_t padded = (cnt + 3) & ~std::size_t{3};
-      float* f = ts.batch.data();
-      float *px = f, *py = px + padded, *pz = py + padded, *rx = pz + padded, *ry = rx + padded, *rz = ry + padded;
-      for (std::size_t t = 0; t < cnt; ++t) {
-        const std::uint32_t j = nb[t];
-        px[t] = sx[j] - xi.x;
-        py[t] = sy[j] - xi.y;
-        pz[t] = sz[j] - xi.z;
-        rx[t] = vi.x - vx[j];
-        ry[t] = vi.y - vy[j];
-        rz[t] = vi.z - vz[j];
+      if (sdf) {
+        const Vec3 x(xi.x, xi.y, xi.z);
+        const float phi = sdf->sample(x);
+        if (phi - r < reach) {
+          const Vec3 gr = normalAt(*sdf, x);
+          if (gr.squaredNorm() > 0.0f) planes[m++] = obstaclePlane(F3{gr.x(), gr.y(), gr.z()}, phi, r, tauO, dt);
+        }
       }
-      for (std::size_t t = cnt; t < padded; ++t) {  // harmless filler, dropped below
-        px[t] = 1.0f + R;
-        py[t] = pz[t] = rx[t] = ry[t] = rz[t] = 0.0f;
+      hards[a] = m;
+      std::size_t cnt;
+      const std::uint32_t* nb = neighbors(k, cnt);
+      {
+        const std::size_t padded = (cnt + 3) & ~std::size_t{3};
+        float* f = ts.batch.data();
+        float *px = f, *py = px + padded, *pz = py + padded, *rx = pz + padded, *ry = rx + padded, *rz = ry + padded;
+        for (std::size_t t = 0; t < cnt; ++t) {
+          const std::uint32_t j = nb[t];
+          px[t] = sx[j] - xi.x;
+          py[t] = sy[j] - xi.y;
+          pz[t] = sz[j] - xi.z;
+          rx[t] = vi.x - vx[j];
+          ry[t] = vi.y - vy[j];
+          rz[t] = vi.z - vz[j];
+        }
+        for (std::size_t t = cnt; t < padded; ++t) {  // harmless filler, dropped below
+          px[t] = 1.0f + R;
+          py[t] = pz[t] = rx[t] = ry[t] = rz[t] = 0.0f;
+        }
+        float *nx = rz + padded, *ny = nx + padded, *nz = ny + padded, *b = nz + padded, *degenerate = b + padded;
+        agentPlanes(padded, px, py, pz, rx, ry, rz, vi, ac, nx, ny, nz, b, degenerate);
+        for (std::size_t t = 0; t < cnt; ++t) {
+          planes[m++] = degenerate[t] == 0.0f ? Plane{nx[t], ny[t], nz[t], b[t]}
+                                              : agentPlane(F3{px[t], py[t], pz[t]}, vi, F3{rx[t], ry[t], rz[t]},
+                                                           static_cast<std::uint32_t>(k), nb[t], ac);
+        }
       }
-      float *nx = rz + padded, *ny = nx + padded, *nz = ny + padded, *b = nz + padded, *degenerate = b + padded;
-      agentPlanes(padded, px, py, pz, rx, ry, rz, vi, ac, nx, ny, nz, b, degenerate);
-      for (std::size_t t = 0; t < cnt; ++t) {
-        planes[m++] = degenerate[t] == 0.0f ? Plane{nx[t], ny[t], nz[t], b[t]}
-                                            : agentPlane(F3{px[t], py[t], pz[t]}, vi, F3{rx[t], ry[t], rz[t]},
-                                                         static_cast<std::uint32_t>(k), nb[t], ac);
-      }
+      counts[a] = m;
+      prefs[a] = Vec3(prefX[k], prefY[k], prefZ[k]);
     }
-    Vec3 v;
-    if (solveVelocity(planes, m, hard, Vec3(prefX[k], prefY[k], prefZ[k]), params.maxSpeed, ts.projected.data(), v)) {
-      ++ts.infeasible;
+    ts.infeasible += solveVelocities(ts.planes.data(), maxPlanes, counts, hards, prefs, agents, params.maxSpeed,
+                                     ts.projected.data(), ts.lanes, outs, infeasible, lanes);
+    for (std::size_t a = 0; a < agents; ++a) {
+      outX[first + a] = outs[a].x();
+      outY[first + a] = outs[a].y();
+      outZ[first + a] = outs[a].z();
     }
-    outX[k] = v.x();
-    outY[k] = v.y();
-    outZ[k] = v.z();
   });
   infeasible_ = 0;
   for (const auto& t : threads_) infeasible_ += t.infeasible;

@@ -10,11 +10,12 @@
 // half-spaces and the max-speed ball (an incremental 3-D linear program). When
 // the half-spaces have no common point inside the ball, the velocity of
 // smallest worst violation is used, obstacle half-spaces first.
-#include "core/state_buffer.hpp"
 #include <cstddef>
 #include <cstdint>
 #include <vector>
 
+#include "core/lanes.hpp"
+#include "core/state_buffer.hpp"
 #include "core/vec.hpp"
 #include "fields/grid3.hpp"
 #include "spatial/uniform_grid.hpp"
@@ -54,6 +55,15 @@ struct Plane {
 // `scratch` must hold count planes. Returns true if the fallback was needed.
 bool solveVelocity(Plane* planes, std::size_t count, std::size_t hard, const Vec3& pref, float maxSpeed, Plane* scratch,
                    Vec3& out);
+
+// solveVelocity of `agents` agents at once: agent a's planes at planes + a * stride (count[a] of them, the
+// first hard[a] obstacle half-spaces), its preferred velocity pref[a]; writes out[a] and infeasible[a] (solveVelocity's
+// result), and returns how many were infeasible. With the AVX2 or AVX-512 lane set the ball programs run eight
+// agents at a time, with the same bits as solveVelocity one agent at a time. `scratch` holds the most planes of one
+// agent; lanesScratch grows to what the lanes need.
+std::size_t solveVelocities(Plane* planes, std::size_t stride, const std::size_t* count, const std::size_t* hard,
+                            const Vec3* pref, std::size_t agents, float maxSpeed, Plane* scratch,
+                            std::vector<float>& lanesScratch, Vec3* out, bool* infeasible, LaneSet lanes);
 
 // The ORCA half-space of an agent moving at vi for a neighbour at relative position
 // p = x_j - x_i moving at vj, as the solver builds it (docs/orca.md); for tests.
@@ -110,7 +120,8 @@ class Solver {
     CellBlock block;                  // candidates of one cell's neighbourhood
     std::vector<std::uint64_t> best;  // k nearest so far: (squared distance bits << 32) | index, ascending
     std::vector<std::uint64_t> keys;  // the block hits' keys (the AVX2 selection)
-    std::vector<Plane> planes, projected;
+    std::vector<Plane> planes, projected;  // planes: kLpLanes agents' half-spaces
+    std::vector<float> lanes;              // their programs on lanes
     std::vector<float> batch;  // the neighbours' relative positions and velocities, then their planes (SoA)
     std::vector<std::uint32_t> histogram;
     std::size_t infeasible = 0, widened = 0;
