@@ -239,8 +239,11 @@ TEST_CASE("orca: k nearest neighbours match brute force, ties by index", "[orca]
   const float* sx = grid.sortedX().data();
   const float* sy = grid.sortedY().data();
   const float* sz = grid.sortedZ().data();
-  // the selection on AVX2 lanes (rank counts, up to 64 hits) and without (SWARMSIM_NO_AVX2): the same lists
-  for (const bool noAvx2 : {false, true}) {
+  // the selection on AVX-512 or AVX2 lanes (rank counts, up to 64 hits, up to 32 without a branch) and without
+  // (SWARMSIM_NO_AVX2): the same lists
+  for (const int mode : {0, 1, 2}) {
+    const bool noAvx2 = mode == 2;
+    const swarmsim_test::EnvGuard lanes512("SWARMSIM_NO_AVX512", mode == 1 ? "1" : nullptr);
     const swarmsim_test::EnvGuard lanes("SWARMSIM_NO_AVX2", noAvx2 ? "1" : nullptr);
     for (const int K : {1, 10, 25}) {
       Params p = paramsFor(0.1f);
@@ -252,7 +255,7 @@ TEST_CASE("orca: k nearest neighbours match brute force, ties by index", "[orca]
       for (int round = 0; round < 2; ++round) {
         solver.solve(grid, zero.data(), zero.data(), zero.data(), zero.data(), zero.data(), zero.data(), p, {}, 0.1f,
                      out.data(), out.data() + n, out.data() + 2 * n);
-        INFO("K " << K << " round " << round << " SWARMSIM_NO_AVX2 " << noAvx2 << " cell " << solver.searchCell() << " widened "
+        INFO("K " << K << " round " << round << " lanes " << mode << " cell " << solver.searchCell() << " widened "
                   << solver.widenedSearches());
         std::size_t mismatches = 0;
         std::vector<std::pair<float, std::uint32_t>> all;

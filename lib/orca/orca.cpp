@@ -318,10 +318,30 @@ constexpr std::size_t kRankMax = 64;
 // (they are distinct), counted four at a time, and a key of rank below K goes to best[rank]. Keys are below
 // 2^63 (a squared distance's bits, never negative, above the index), so signed 64-bit compares order them.
 // keys[] has room for whole lanes: the entries from h on are set to the largest key here.
+// Up to 32 keys are held in eight registers, so each key's rank takes no branch; best[] has a slot past K for the
+// keys of rank K and more.
 SWARMSIM_AVX2 void selectNearestAvx2(std::uint64_t* keys, std::size_t h, std::uint64_t* best, std::size_t K) {
   std::fill(best, best + K, kEmpty);
   const std::size_t padded = (h + 3) / 4 * 4;
   for (std::size_t t = h; t < padded; ++t) keys[t] = std::numeric_limits<std::int64_t>::max();
+  if (padded <= 32) {
+    const __m256i pad = _mm256_set1_epi64x(std::numeric_limits<std::int64_t>::max());
+    __m256i k[8];
+    for (std::size_t c = 0; c < 8; ++c) {
+      k[c] = 4 * c < padded ? _mm256_loadu_si256(reinterpret_cast<const __m256i*>(keys + 4 * c)) : pad;
+    }
+    for (std::size_t i = 0; i < h; ++i) {
+      const __m256i key = _mm256_set1_epi64x(static_cast<long long>(keys[i]));
+      // each compare's lanes as four bits of one word
+      unsigned bits = 0;
+      for (unsigned c = 0; c < 8; ++c) {
+        bits |= static_cast<unsigned>(_mm256_movemask_pd(_mm256_castsi256_pd(_mm256_cmpgt_epi64(key, k[c]))))
+                << (4 * c);
+      }
+      best[std::min(static_cast<std::size_t>(__builtin_popcount(bits)), K)] = keys[i];
+    }
+    return;
+  }
   for (std::size_t i = 0; i < h; ++i) {
     const __m256i key = _mm256_set1_epi64x(static_cast<long long>(keys[i]));
     std::size_t rank = 0;
@@ -332,6 +352,72 @@ SWARMSIM_AVX2 void selectNearestAvx2(std::uint64_t* keys, std::size_t h, std::ui
     }
     if (rank < K) best[rank] = keys[i];
   }
+}
+
+// selectNearestAvx2's result, eight keys a compare (AVX-512). keys[] has room for whole lanes of eight.
+// Up to 32 keys are held in four registers, so each key's rank takes no branch; best[] has a slot past K for the
+// keys of rank K and more.
+SWARMSIM_AVX512 void selectNearestAvx512(std::uint64_t* keys, std::size_t h, std::uint64_t* best, std::size_t K) {
+  std::fill(best, best + K, kEmpty);
+  const std::size_t padded = (h + 7) / 8 * 8;
+  for (std::size_t t = h; t < padded; ++t) keys[t] = std::numeric_limits<std::int64_t>::max();
+  if (padded <= 32) {
+    const __m512i pad = _mm512_set1_epi64(std::numeric_limits<std::int64_t>::max());
+    __m512i k[4];
+    for (std::size_t c = 0; c < 4; ++c) k[c] = 8 * c < padded ? _mm512_loadu_si512(keys + 8 * c) : pad;
+    const __m512i k0 = k[0], k1 = k[1], k2 = k[2], k3 = k[3];
+    for (std::size_t i = 0; i < h; ++i) {
+      const __m512i key = _mm512_set1_epi64(static_cast<long long>(keys[i]));
+      const std::size_t rank = static_cast<std::size_t>(
+          __builtin_popcount(_mm512_cmpgt_epi64_mask(key, k0)) + __builtin_popcount(_mm512_cmpgt_epi64_mask(key, k1)) +
+          __builtin_popcount(_mm512_cmpgt_epi64_mask(key, k2)) + __builtin_popcount(_mm512_cmpgt_epi64_mask(key, k3)));
+      best[std::min(rank, K)] = keys[i];
+    }
+    return;
+  }
+  for (std::size_t i = 0; i < h; ++i) {
+    const __m512i key = _mm512_set1_epi64(static_cast<long long>(keys[i]));
+    unsigned rank = 0;
+    for (std::size_t j = 0; j < padded; j += 8) {
+      rank += static_cast<unsigned>(
+          __builtin_popcount(_mm512_cmpgt_epi64_mask(key, _mm512_loadu_si512(static_cast<const void*>(keys + j)))));
+    }
+    if (rank < K) best[rank] = keys[i];
+  }
+}
+
+// blockHitsAvx2's hits and squared distances, sixteen candidates at a time (AVX-512; the same operations)
+SWARMSIM_AVX512 std::size_t blockHitsAvx512(const CellBlock& block, float qx, float qy, float qz, float limit,
+                                            float* d2s, std::uint32_t* hits) {
+  const std::size_t size = block.size;
+  const __m512 vx = _mm512_set1_ps(qx), vy = _mm512_set1_ps(qy), vz = _mm512_set1_ps(qz), vl = _mm512_set1_ps(limit);
+  const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  std::size_t found = 0;
+  for (std::size_t j = 0; j < size; j += 16) {
+    const __mmask16 in = size - j >= 16 ? __mmask16(0xffff) : static_cast<__mmask16>((1u << (size - j)) - 1u);
+    const __m512 dx = _mm512_sub_ps(_mm512_maskz_loadu_ps(in, block.x.data() + j), vx);
+    const __m512 dy = _mm512_sub_ps(_mm512_maskz_loadu_ps(in, block.y.data() + j), vy);
+    const __m512 dz = _mm512_sub_ps(_mm512_maskz_loadu_ps(in, block.z.data() + j), vz);
+    const __m512 d2 = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)), _mm512_mul_ps(dz, dz));
+    _mm512_mask_storeu_ps(d2s + j, in, d2);
+    const __mmask16 hit = _mm512_mask_cmp_ps_mask(in, d2, vl, _CMP_LE_OQ);
+    _mm512_mask_compressstoreu_epi32(hits + found, hit, _mm512_add_epi32(lane, _mm512_set1_epi32(static_cast<int>(j))));
+    found += static_cast<std::size_t>(__builtin_popcount(hit));
+  }
+  return found;
+}
+// rehitAvx2's hits, sixteen at a time
+SWARMSIM_AVX512 std::size_t rehitAvx512(const float* d2s, std::size_t size, float limit, std::uint32_t* hits) {
+  const __m512 vl = _mm512_set1_ps(limit);
+  const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  std::size_t found = 0;
+  for (std::size_t j = 0; j < size; j += 16) {
+    const __mmask16 in = size - j >= 16 ? __mmask16(0xffff) : static_cast<__mmask16>((1u << (size - j)) - 1u);
+    const __mmask16 hit = _mm512_mask_cmp_ps_mask(in, _mm512_maskz_loadu_ps(in, d2s + j), vl, _CMP_LE_OQ);
+    _mm512_mask_compressstoreu_epi32(hits + found, hit, _mm512_add_epi32(lane, _mm512_set1_epi32(static_cast<int>(j))));
+    found += static_cast<std::size_t>(__builtin_popcount(hit));
+  }
+  return found;
 }
 
 // The block entries within `limit` of q (squared), in block order, to hits[0, returned); their squared distances
@@ -599,6 +685,7 @@ void Solver::findNeighbors(const UniformGrid& grid, const Params& params) {
 
   const LaneSet lanes = laneSet();
   const bool wide = lanes == LaneSet::kAvx2 || lanes == LaneSet::kAvx512;  // the selection on AVX2 (same result)
+  const bool wide512 = lanes == LaneSet::kAvx512;                          // and on AVX-512
   const auto cellWork = [&](std::size_t c) {
     const std::uint32_t a0 = sg.cellBegin(c), a1 = sg.cellEnd(c);
     if (a0 == a1) return;
@@ -618,13 +705,17 @@ void Solver::findNeighbors(const UniformGrid& grid, const Params& params) {
         // the same hits and keys as below, eight candidates at a time, and the k nearest by rank counts
         float* d2w = block.d2.data();
         std::uint32_t* hitw = block.hits.data();
-        std::size_t hits = guess < blockLimit ? blockHitsAvx2(block, qx, qy, qz, guess, d2w, hitw) : 0;
+        const auto blockHits = [&](float limit) {
+          return wide512 ? blockHitsAvx512(block, qx, qy, qz, limit, d2w, hitw)
+                         : blockHitsAvx2(block, qx, qy, qz, limit, d2w, hitw);
+        };
+        std::size_t hits = guess < blockLimit ? blockHits(guess) : 0;
         if (guess >= blockLimit) {
-          hits = blockHitsAvx2(block, qx, qy, qz, blockLimit, d2w, hitw);
+          hits = blockHits(blockLimit);
         } else if (hits <= K) {
-          hits = rehitAvx2(d2w, size, blockLimit, hitw);
+          hits = wide512 ? rehitAvx512(d2w, size, blockLimit, hitw) : rehitAvx2(d2w, size, blockLimit, hitw);
         }
-        if (ts.keys.size() < size + 4) ts.keys.resize(size + 4);  // grows to the largest block, then stays
+        if (ts.keys.size() < size + 8) ts.keys.resize(size + 8);  // grows to the largest block, then stays
         std::uint64_t* keys = ts.keys.data();
         std::size_t nk = 0;
         for (std::size_t t = 0; t < hits; ++t) {
@@ -634,7 +725,9 @@ void Solver::findNeighbors(const UniformGrid& grid, const Params& params) {
           keys[nk] = neighborKey(d2, order[other]);
           nk += static_cast<std::size_t>(other != m && d2 < nd2);
         }
-        if (nk <= kRankMax) {
+        if (nk <= kRankMax && wide512) {
+          selectNearestAvx512(keys, nk, best, K);
+        } else if (nk <= kRankMax) {
           selectNearestAvx2(keys, nk, best, K);
         } else {
           selectNearestScalar(keys, nk, best, K);
@@ -747,7 +840,7 @@ void Solver::solve(const UniformGrid& grid, const float* vx, const float* vy, co
   if (threads_.size() < team) threads_.resize(team);
   const std::size_t maxPlanes = K + obstacles.spheres.size() + 1;
   for (auto& t : threads_) {
-    if (t.best.size() < K) t.best.resize(K);
+    if (t.best.size() < K + 1) t.best.resize(K + 1);  // a slot past the K nearest (selectNearestAvx512)
     if (t.planes.size() < kLpLanes * maxPlanes) {
       t.planes.resize(kLpLanes * maxPlanes);
       t.projected.resize(maxPlanes);
