@@ -719,6 +719,55 @@ TEST_CASE("orca: results are identical for 1 and 2 threads", "[orca]") {
   swarmsim::setThreadCount(saved);
 }
 
+TEST_CASE("orca: results are identical on every lane set, with obstacles, coincident and overlapping agents",
+          "[orca]") {
+  // With AVX2 or AVX-512, solve builds eight agents' half-spaces at once and runs their programs on lanes;
+  // without (SWARMSIM_NO_AVX2, SWARMSIM_NO_AVX) one agent at a time. Agents near the sphere or the box have one or
+  // two obstacle planes, the others none, so the groups mix counts; coincident agents at rest and overlapping
+  // ones give the half-spaces agentPlane redoes.
+  Params p = paramsFor(0.4f);
+  std::mt19937 rng(7);
+  Crowd base;
+  for (int i = 0; i < 3000; ++i) {
+    base.add(randomInBall(rng, 10.0f), randomInBall(rng, 10.0f), randomInBall(rng, 2.0f));
+  }
+  for (int i = 0; i < 40; ++i) {  // pairs at one point, at rest; pairs overlapping
+    const Vec3 at = randomInBall(rng, 9.0f);
+    base.add(at, randomInBall(rng, 10.0f));
+    base.add(at, randomInBall(rng, 10.0f));
+    base.add(at + randomUnit(rng) * 0.3f, randomInBall(rng, 10.0f), randomInBall(rng, 1.0f));
+  }
+  swarmsim::Obstacles scene;
+  scene.boxes.push_back({Vec3d(-9, -9, -9), Vec3d(-4, -4, -4)});
+  const auto spec = swarmsim::GridSpec::covering(Vec3d(-12, -12, -12), Vec3d(12, 12, 12), {24, 24, 24});
+  const swarmsim::Grid3<float> sdf = swarmsim::signedDistance(scene, spec);
+  swarmsim::orca::Obstacles obstacles;
+  obstacles.spheres.push_back({Vec3(3, 3, 3), 2.0f});
+  obstacles.spheres.push_back({Vec3(-2, 4, 0), 1.5f, Vec3(0.5f, 0, 0)});
+  obstacles.sdf = &sdf;
+  const std::vector<std::pair<const char*, const char*>> modes = {{"SWARMSIM_NO_AVX512", nullptr},
+                                                                  {"SWARMSIM_NO_AVX512", "1"},
+                                                                  {"SWARMSIM_NO_AVX2", "1"},
+                                                                  {"SWARMSIM_NO_AVX", "1"}};
+  std::vector<Crowd> runs(modes.size(), base);
+  for (int s = 0; s < 4; ++s) {
+    for (std::size_t m = 0; m < modes.size(); ++m) {
+      const swarmsim_test::EnvGuard lanes(modes[m].first, modes[m].second);
+      runs[m].step(p, obstacles, 0.1f);
+    }
+    for (std::size_t m = 1; m < modes.size(); ++m) {
+      INFO("step " << s << ", " << modes[m].first << " against the widest lanes");
+      REQUIRE(runs[0].id == runs[m].id);
+      for (const auto& pair : {std::make_pair(&runs[0].ox, &runs[m].ox), std::make_pair(&runs[0].oy, &runs[m].oy),
+                               std::make_pair(&runs[0].oz, &runs[m].oz)}) {
+        CHECK(std::memcmp(pair.first->data(), pair.second->data(), pair.first->size() * sizeof(float)) == 0);
+      }
+      CHECK(runs[0].solver.infeasibleCount() == runs[m].solver.infeasibleCount());
+    }
+  }
+  CHECK(runs[0].solver.infeasibleCount() > 0);
+}
+
 TEST_CASE("orca: parameters out of range are rejected", "[orca]") {
   Crowd c;
   c.add(Vec3(0, 0, 0), Vec3(1, 0, 0));

@@ -149,12 +149,58 @@ SWARMSIM_AVX2 void ballProgramLanes(const float* planes, std::size_t count, floa
   _mm256_storeu_ps(v + 2 * kLpLanes, at.z);
 }
 
+SWARMSIM_AVX2 void agentPlanesLanes(const float* rel, std::size_t T, const float* vi, float R, float invTau,
+                                    float invDt, float* planes, std::uint8_t* degenerate) {
+  const __m256 tiny = _mm256_set1_ps(1e-20f), zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
+  const __m256 vR = _mm256_set1_ps(R), vR2 = _mm256_set1_ps(R * R), half = _mm256_set1_ps(0.5f);
+  const __m256 vTau = _mm256_set1_ps(invTau), vDt = _mm256_set1_ps(invDt);
+  const V3 v{_mm256_loadu_ps(vi), _mm256_loadu_ps(vi + kLpLanes), _mm256_loadu_ps(vi + 2 * kLpLanes)};
+  for (std::size_t t = 0; t < T; ++t) {
+    const float* in = rel + t * 6 * kLpLanes;
+    const V3 p{_mm256_loadu_ps(in), _mm256_loadu_ps(in + kLpLanes), _mm256_loadu_ps(in + 2 * kLpLanes)};
+    const V3 r{_mm256_loadu_ps(in + 3 * kLpLanes), _mm256_loadu_ps(in + 4 * kLpLanes),
+               _mm256_loadu_ps(in + 5 * kLpLanes)};
+    const __m256 dist2 = dot(p, p);
+    const __m256 over = _mm256_cmp_ps(dist2, vR2, _CMP_NGT_UQ);  // !(dist2 > R2)
+    const __m256 inv = _mm256_blendv_ps(vTau, vDt, over);
+    const V3 w = sub(r, scale(p, inv));
+    const __m256 w2 = dot(w, w), wp = dot(w, p);
+    const __m256 cap =
+        _mm256_or_ps(over, _mm256_and_ps(_mm256_cmp_ps(wp, zero, _CMP_LT_OQ),
+                                         _mm256_cmp_ps(_mm256_mul_ps(wp, wp), _mm256_mul_ps(vR2, w2), _CMP_GT_OQ)));
+    const __m256 wl = _mm256_sqrt_ps(w2);
+    // maxOf(a, b) is a > b ? a : b, _mm256_max_ps(a, b)
+    const __m256 iw = _mm256_div_ps(one, _mm256_max_ps(wl, tiny));
+    const __m256 dist = _mm256_sqrt_ps(dist2);
+    const __m256 id = _mm256_div_ps(one, _mm256_max_ps(dist, tiny));
+    const V3 a = scale(p, id);
+    const __m256 sinA = _mm256_mul_ps(vR, id);
+    const __m256 cosA = _mm256_mul_ps(_mm256_sqrt_ps(_mm256_max_ps(_mm256_sub_ps(dist2, vR2), zero)), id);
+    const __m256 s = dot(r, a);
+    const V3 q = sub(r, scale(a, s));
+    const __m256 q2 = dot(q, q);
+    const __m256 iq = _mm256_div_ps(one, _mm256_sqrt_ps(_mm256_max_ps(q2, tiny)));
+    const V3 c = sub(scale(scale(q, iq), cosA), scale(a, sinA));
+    const __m256 coneAlong = _mm256_xor_ps(dot(r, c), _mm256_set1_ps(-0.0f));
+    const V3 m = select(c, scale(w, iw), cap);
+    const __m256 along = _mm256_blendv_ps(coneAlong, _mm256_sub_ps(_mm256_mul_ps(vR, inv), wl), cap);
+    float* out = planes + t * kLpPlaneFloats;
+    _mm256_storeu_ps(out, m.x);
+    _mm256_storeu_ps(out + kLpLanes, m.y);
+    _mm256_storeu_ps(out + 2 * kLpLanes, m.z);
+    _mm256_storeu_ps(out + 3 * kLpLanes, _mm256_add_ps(dot(m, v), _mm256_mul_ps(half, along)));
+    const __m256 defined = _mm256_cmp_ps(_mm256_blendv_ps(q2, w2, cap), tiny, _CMP_GT_OQ);
+    degenerate[t] = static_cast<std::uint8_t>(~_mm256_movemask_ps(defined) & 0xff);
+  }
+}
+
 }  // namespace swarmsim::orca
 
 #else
 
 namespace swarmsim::orca {
 void ballProgramLanes(const float*, std::size_t, float, const float*, float*, std::uint32_t*) {}
+void agentPlanesLanes(const float*, std::size_t, const float*, float, float, float, float*, std::uint8_t*) {}
 }  // namespace swarmsim::orca
 
 #endif

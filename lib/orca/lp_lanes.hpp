@@ -26,4 +26,12 @@ constexpr std::size_t kLpPlaneFloats = 4 * kLpLanes;
 void ballProgramLanes(const float* planes, std::size_t count, float R, const float* pref, float* v,
                       std::uint32_t* fail);
 
+// The half-spaces of eight agents' neighbours, the t-th neighbour of each agent at once, one agent per lane:
+// orca.cpp's agentPlanes, operation by operation. rel: for t in [0, T), six rows of eight floats (p = x_j - x_i
+// in x, y, z, then rv = v_i - v_j in x, y, z); vi: the agents' velocities (x of the eight lanes, then y, z).
+// Writes plane t to planes + t * kLpPlaneFloats (the lanes' layout) and, in degenerate[t], a bit for each lane
+// whose normal is undefined there (agentPlane redoes those). AVX2 only.
+void agentPlanesLanes(const float* rel, std::size_t T, const float* vi, float R, float invTau, float invDt,
+                      float* planes, std::uint8_t* degenerate);
+
 }  // namespace swarmsim::orca

@@ -846,6 +846,10 @@ void Solver::solve(const UniformGrid& grid, const float* vx, const float* vy, co
       t.projected.resize(maxPlanes);
     }
     if (t.batch.size() < 11 * (K + 3)) t.batch.resize(11 * (K + 3));
+    // the lanes' planes, the neighbours' rows, the agents' own rows and the neighbours' planes apart
+    const std::size_t lanesFloats = maxPlanes * kLpPlaneFloats + K * 6 * kLpLanes + 9 * kLpLanes + K * kLpPlaneFloats;
+    if (t.lanes.size() < lanesFloats) t.lanes.resize(lanesFloats);
+    if (t.degenerate.size() < K) t.degenerate.resize(K);
     t.histogram.resize(kBins);
     t.infeasible = 0;
   }
@@ -863,40 +867,152 @@ void Solver::solve(const UniformGrid& grid, const float* vx, const float* vy, co
   const float reach = params.maxSpeed * tauO;  // obstacles farther than r + reach cannot be hit in time
   const Grid3<float>* sdf = obstacles.sdf;
   const LaneSet lanes = laneSet();
+  const bool onLanes = SWARMSIM_X86_LANES && (lanes == LaneSet::kAvx2 || lanes == LaneSet::kAvx512);
+  // the obstacles' half-spaces of agent k to planes[0, returned); they come first and stay hard in the fallback
+  const auto obstaclePlanes = [&](std::size_t k, Plane* planes) {
+    std::size_t m = 0;
+    const F3 xi{sx[k], sy[k], sz[k]};
+    for (const Sphere& s : obstacles.spheres) {
+      const F3 d = xi - F3{s.center.x(), s.center.y(), s.center.z()};
+      const float dist2 = dot(d, d), far = s.radius + r + reach;
+      if (dist2 >= far * far) continue;
+      const float dist = std::sqrt(dist2);
+      const F3 nrm = dist > 0.0f ? d * (1.0f / dist) : F3{1.0f, 0.0f, 0.0f};
+      Plane pl = obstaclePlane(nrm, dist - s.radius, r, tauO, dt);
+      pl.b += nrm.x * s.velocity.x() + nrm.y * s.velocity.y() + nrm.z * s.velocity.z();  // n.(v - v_s) >= b
+      planes[m++] = pl;
+    }
+    if (sdf) {
+      const Vec3 x(xi.x, xi.y, xi.z);
+      const float phi = sdf->sample(x);
+      if (phi - r < reach) {
+        const Vec3 gr = normalAt(*sdf, x);
+        if (gr.squaredNorm() > 0.0f) planes[m++] = obstaclePlane(F3{gr.x(), gr.y(), gr.z()}, phi, r, tauO, dt);
+      }
+    }
+    return m;
+  };
   // agents in groups of kLpLanes: each agent's half-spaces, then the group's programs at once
   const std::size_t groups = (n + kLpLanes - 1) / kLpLanes;
   forEach(groups, 32, [&](std::size_t g) {
     ThreadScratch& ts = threads_[static_cast<std::size_t>(threadIndex())];
     const std::size_t first = g * kLpLanes, agents = std::min(kLpLanes, n - first);
     std::size_t counts[kLpLanes] = {}, hards[kLpLanes] = {};
+#if SWARMSIM_X86_LANES
+    if (onLanes) {
+      // one agent per lane: the neighbours' half-spaces and the programs on the lanes, straight in their layout
+      std::size_t neighbours[kLpLanes] = {};
+      const std::uint32_t* nbs[kLpLanes] = {};
+      std::size_t T = 0, most = 0;
+      bool sameHard = true;
+      for (std::size_t a = 0; a < agents; ++a) {
+        hards[a] = obstaclePlanes(first + a, ts.planes.data() + a * maxPlanes);
+        nbs[a] = neighbors(first + a, neighbours[a]);
+        T = std::max(T, neighbours[a]);
+        most = std::max(most, hards[a] + neighbours[a]);
+        sameHard = sameHard && hards[a] == hards[0];
+      }
+      float* soa = ts.lanes.data();
+      float* rel = soa + maxPlanes * kLpPlaneFloats;
+      float* own = rel + K * 6 * kLpLanes;  // the agents' velocities, then their preferred ones, then the results
+      float* tmp = own + 9 * kLpLanes;      // the neighbours' half-spaces when the obstacles' counts differ
+      std::uint8_t* degenerate = ts.degenerate.data();
+      for (std::size_t a = 0; a < kLpLanes; ++a) {
+        const bool real = a < agents;
+        const std::size_t k = first + a;
+        const float xs = real ? sx[k] : 0.0f, ys = real ? sy[k] : 0.0f, zs = real ? sz[k] : 0.0f;
+        const float us = real ? vx[k] : 0.0f, vs = real ? vy[k] : 0.0f, ws = real ? vz[k] : 0.0f;
+        own[a] = us;
+        own[kLpLanes + a] = vs;
+        own[2 * kLpLanes + a] = ws;
+        own[3 * kLpLanes + a] = real ? prefX[k] : 0.0f;
+        own[4 * kLpLanes + a] = real ? prefY[k] : 0.0f;
+        own[5 * kLpLanes + a] = real ? prefZ[k] : 0.0f;
+        for (std::size_t t = 0; t < T; ++t) {
+          float* row = rel + t * 6 * kLpLanes + a;
+          if (t < neighbours[a]) {
+            const std::uint32_t j = nbs[a][t];
+            row[0] = sx[j] - xs;
+            row[kLpLanes] = sy[j] - ys;
+            row[2 * kLpLanes] = sz[j] - zs;
+            row[3 * kLpLanes] = us - vx[j];
+            row[4 * kLpLanes] = vs - vy[j];
+            row[5 * kLpLanes] = ws - vz[j];
+          } else {  // harmless filler, replaced by padding below
+            row[0] = 1.0f + R;
+            row[kLpLanes] = row[2 * kLpLanes] = row[3 * kLpLanes] = row[4 * kLpLanes] = row[5 * kLpLanes] = 0.0f;
+          }
+        }
+      }
+      const std::size_t base = sameHard ? hards[0] : 0;
+      float* agentRows = sameHard ? soa + base * kLpPlaneFloats : tmp;
+      agentPlanesLanes(rel, T, own, ac.R, ac.invTau, ac.invDt, agentRows, degenerate);
+      const auto put = [&](std::size_t i, std::size_t a, const Plane& pl) {
+        float* row = soa + i * kLpPlaneFloats + a;
+        row[0] = pl.nx;
+        row[kLpLanes] = pl.ny;
+        row[2 * kLpLanes] = pl.nz;
+        row[3 * kLpLanes] = pl.b;
+      };
+      const Plane none{0.0f, 0.0f, 0.0f, -std::numeric_limits<float>::infinity()};  // no velocity violates it
+      for (std::size_t a = 0; a < kLpLanes; ++a) {
+        const Plane* hardPlanes = ts.planes.data() + a * maxPlanes;
+        for (std::size_t i = 0; i < hards[a]; ++i) put(i, a, hardPlanes[i]);
+        if (!sameHard) {
+          for (std::size_t t = 0; t < neighbours[a]; ++t) {
+            const float* row = tmp + t * kLpPlaneFloats + a;
+            put(hards[a] + t, a, Plane{row[0], row[kLpLanes], row[2 * kLpLanes], row[3 * kLpLanes]});
+          }
+        }
+        for (std::size_t i = hards[a] + neighbours[a]; i < std::max(most, base + T); ++i) put(i, a, none);
+        counts[a] = hards[a] + neighbours[a];
+      }
+      for (std::size_t t = 0; t < T; ++t) {
+        for (unsigned bits = degenerate[t]; bits != 0; bits &= bits - 1) {
+          const auto a = static_cast<std::size_t>(__builtin_ctz(bits));
+          if (t >= neighbours[a]) continue;
+          const float* in = rel + t * 6 * kLpLanes + a;
+          const F3 vi{own[a], own[kLpLanes + a], own[2 * kLpLanes + a]};
+          put(hards[a] + t, a,
+              agentPlane(F3{in[0], in[kLpLanes], in[2 * kLpLanes]}, vi,
+                         F3{in[3 * kLpLanes], in[4 * kLpLanes], in[5 * kLpLanes]},
+                         static_cast<std::uint32_t>(first + a), nbs[a][t], ac));
+        }
+      }
+      std::uint32_t fail[kLpLanes];
+      float* got = own + 6 * kLpLanes;
+      ballProgramLanes(soa, most, params.maxSpeed, own + 3 * kLpLanes, got, fail);
+      for (std::size_t a = 0; a < agents; ++a) {
+        const std::size_t failed = std::min<std::size_t>(fail[a], counts[a]);
+        Plane* planes = ts.planes.data() + a * maxPlanes;
+        if (failed < counts[a]) {  // the fallback works on the agent's own planes
+          for (std::size_t i = 0; i < counts[a]; ++i) {
+            const float* row = soa + i * kLpPlaneFloats + a;
+            planes[i] = Plane{row[0], row[kLpLanes], row[2 * kLpLanes], row[3 * kLpLanes]};
+          }
+        }
+        Vec3 v;
+        const F3 want{own[3 * kLpLanes + a], own[4 * kLpLanes + a], own[5 * kLpLanes + a]};
+        const F3 at{got[a], got[kLpLanes + a], got[2 * kLpLanes + a]};
+        if (finishVelocity(planes, counts[a], hards[a], want, params.maxSpeed, ts.projected.data(), failed, at, v)) {
+          ++ts.infeasible;
+        }
+        outX[first + a] = v.x();
+        outY[first + a] = v.y();
+        outZ[first + a] = v.z();
+      }
+      return;
+    }
+#endif
     Vec3 prefs[kLpLanes], outs[kLpLanes];
     for (std::size_t a = 0; a < kLpLanes; ++a) prefs[a] = outs[a] = Vec3::Zero();
     bool infeasible[kLpLanes];
     for (std::size_t a = 0; a < agents; ++a) {
       const std::size_t k = first + a;
       Plane* planes = ts.planes.data() + a * maxPlanes;
-      std::size_t m = 0;
+      std::size_t m = obstaclePlanes(k, planes);
       const F3 xi{sx[k], sy[k], sz[k]};
       const F3 vi{vx[k], vy[k], vz[k]};
-      // obstacles first: they stay hard in the fallback
-      for (const Sphere& s : obstacles.spheres) {
-        const F3 d = xi - F3{s.center.x(), s.center.y(), s.center.z()};
-        const float dist2 = dot(d, d), far = s.radius + r + reach;
-        if (dist2 >= far * far) continue;
-        const float dist = std::sqrt(dist2);
-        const F3 nrm = dist > 0.0f ? d * (1.0f / dist) : F3{1.0f, 0.0f, 0.0f};
-        Plane pl = obstaclePlane(nrm, dist - s.radius, r, tauO, dt);
-        pl.b += nrm.x * s.velocity.x() + nrm.y * s.velocity.y() + nrm.z * s.velocity.z();  // n.(v - v_s) >= b
-        planes[m++] = pl;
-      }
-      if (sdf) {
-        const Vec3 x(xi.x, xi.y, xi.z);
-        const float phi = sdf->sample(x);
-        if (phi - r < reach) {
-          const Vec3 gr = normalAt(*sdf, x);
-          if (gr.squaredNorm() > 0.0f) planes[m++] = obstaclePlane(F3{gr.x(), gr.y(), gr.z()}, phi, r, tauO, dt);
-        }
-      }
       hards[a] = m;
       std::size_t cnt;
       const std::uint32_t* nb = neighbors(k, cnt);

@@ -122,6 +122,7 @@ class Solver {
     std::vector<std::uint64_t> keys;  // the block hits' keys (the AVX2 selection)
     std::vector<Plane> planes, projected;  // planes: kLpLanes agents' half-spaces
     std::vector<float> lanes;              // their programs on lanes
+    std::vector<std::uint8_t> degenerate;  // lanes whose neighbour half-space agentPlane redoes
     std::vector<float> batch;  // the neighbours' relative positions and velocities, then their planes (SoA)
     std::vector<std::uint32_t> histogram;
     std::size_t infeasible = 0, widened = 0;
