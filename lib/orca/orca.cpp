@@ -420,6 +420,49 @@ SWARMSIM_AVX512 std::size_t rehitAvx512(const float* d2s, std::size_t size, floa
   return found;
 }
 
+// The keys neighborKey(d2, order[k]) of the sorted points k of the runs [runs[2 i], runs[2 i + 1]) (i < nRuns)
+// with d2 <= limit, d2 < nd2 and k != self, sixteen points at a time, read in place from the sorted positions
+// (order == nullptr: the identity), in the runs' order. keys[] holds at least the runs' points plus 16.
+SWARMSIM_AVX512 std::size_t runKeysAvx512(const float* sx, const float* sy, const float* sz, const std::uint32_t* runs,
+                                          std::size_t nRuns, float qx, float qy, float qz, float limit, float nd2,
+                                          std::uint32_t self, const std::uint32_t* order, std::uint64_t* keys) {
+  const __m512 vx = _mm512_set1_ps(qx), vy = _mm512_set1_ps(qy), vz = _mm512_set1_ps(qz);
+  const __m512 vl = _mm512_set1_ps(limit), vn = _mm512_set1_ps(nd2);
+  const __m512i lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  const __m512i me = _mm512_set1_epi32(static_cast<int>(self));
+  std::size_t found = 0;
+  for (std::size_t i = 0; i < nRuns; ++i) {
+    const std::uint32_t b = runs[2 * i], e = runs[2 * i + 1];
+    for (std::uint32_t j = b; j < e; j += 16) {
+      const __mmask16 in = e - j >= 16 ? __mmask16(0xffff) : static_cast<__mmask16>((1u << (e - j)) - 1u);
+      const __m512 dx = _mm512_sub_ps(_mm512_maskz_loadu_ps(in, sx + j), vx);
+      const __m512 dy = _mm512_sub_ps(_mm512_maskz_loadu_ps(in, sy + j), vy);
+      const __m512 dz = _mm512_sub_ps(_mm512_maskz_loadu_ps(in, sz + j), vz);
+      const __m512 d2 =
+          _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)), _mm512_mul_ps(dz, dz));
+      const __m512i k = _mm512_add_epi32(lane, _mm512_set1_epi32(static_cast<int>(j)));
+      const __mmask16 hit = _mm512_mask_cmpneq_epi32_mask(
+          _mm512_mask_cmp_ps_mask(_mm512_mask_cmp_ps_mask(in, d2, vl, _CMP_LE_OQ), d2, vn, _CMP_LT_OQ), k, me);
+      if (hit == 0) continue;
+      const __m512i id = order ? _mm512_mask_i32gather_epi32(k, hit, k, order, 4) : k;
+      const __m512i bits = _mm512_castps_si512(d2);
+      // (the zero-masked forms where GCC 12 warns about the undefined vector the unmasked ones start from)
+      const auto widen = [](__m256i x) SWARMSIM_AVX512 { return _mm512_maskz_cvtepu32_epi64(0xff, x); };
+      const auto lower = [](__m512i x) SWARMSIM_AVX512 { return _mm512_maskz_extracti64x4_epi64(0xff, x, 0); };
+      const auto upper = [](__m512i x) SWARMSIM_AVX512 { return _mm512_maskz_extracti64x4_epi64(0xff, x, 1); };
+      const __m512i lo = _mm512_or_si512(_mm512_maskz_slli_epi64(0xff, widen(lower(bits)), 32), widen(lower(id)));
+      const __m512i hi = _mm512_or_si512(_mm512_maskz_slli_epi64(0xff, widen(upper(bits)), 32), widen(upper(id)));
+      const auto hitLo = static_cast<__mmask8>(hit & 0xff), hitHi = static_cast<__mmask8>(hit >> 8);
+      // compressed in registers, stored whole (a compress straight to memory is slow on some CPUs)
+      _mm512_storeu_si512(keys + found, _mm512_maskz_compress_epi64(hitLo, lo));
+      found += static_cast<std::size_t>(__builtin_popcount(hitLo));
+      _mm512_storeu_si512(keys + found, _mm512_maskz_compress_epi64(hitHi, hi));
+      found += static_cast<std::size_t>(__builtin_popcount(hitHi));
+    }
+  }
+  return found;
+}
+
 // The block entries within `limit` of q (squared), in block order, to hits[0, returned); their squared distances
 // to d2s[0, size) (the same operations as the scalar loop: dx dx + dy dy + dz dz). The block's arrays hold whole
 // lanes past size (CellBlock::kSlack); lanes from size on are left out.
@@ -772,6 +815,29 @@ void Solver::findNeighbors(const UniformGrid& grid, const Params& params) {
         // with fewer, search in growing cubes up to neighborDistance.
         ++ts.widened;
         const auto search = [&](float r, float limit) {
+#if SWARMSIM_X86_LANES
+          if (wide512) {  // the same keys sixteen at a time, and their k smallest by rank counts
+            std::size_t runCount = 0, points = 0;
+            sg.forEachRun(qx, qy, qz, r, [&](std::uint32_t b, std::uint32_t e) {
+              if (b == e) return;
+              if (ts.runs.size() < 2 * runCount + 2) ts.runs.resize(2 * runCount + 64);
+              ts.runs[2 * runCount] = b;
+              ts.runs[2 * runCount + 1] = e;
+              ++runCount;
+              points += e - b;
+            });
+            if (ts.wideKeys.size() < points + 16) ts.wideKeys.resize(points + 16);  // grows, then stays
+            std::uint64_t* keys = ts.wideKeys.data();
+            const std::size_t nk = runKeysAvx512(sx, sy, sz, ts.runs.data(), runCount, qx, qy, qz, limit, nd2, m,
+                                                 reused_ ? nullptr : order, keys);
+            if (nk <= kRankMax) {
+              selectNearestAvx512(keys, nk, best, K);
+            } else {
+              selectNearestScalar(keys, nk, best, K);
+            }
+            return;
+          }
+#endif
           std::fill(best, best + K, kEmpty);
           sg.forEachRun(qx, qy, qz, r, [&](std::uint32_t b, std::uint32_t e) {
             for (std::uint32_t o = b; o < e; ++o) {

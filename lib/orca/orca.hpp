@@ -120,6 +120,8 @@ class Solver {
     CellBlock block;                  // candidates of one cell's neighbourhood
     std::vector<std::uint64_t> best;  // k nearest so far: (squared distance bits << 32) | index, ascending
     std::vector<std::uint64_t> keys;  // the block hits' keys (the AVX2 selection)
+    std::vector<std::uint64_t> wideKeys;   // the keys of a search beyond the block (AVX-512)
+    std::vector<std::uint32_t> runs;       // its runs of sorted positions
     std::vector<Plane> planes, projected;  // planes: kLpLanes agents' half-spaces
     std::vector<float> lanes;              // their programs on lanes
     std::vector<std::uint8_t> degenerate;  // lanes whose neighbour half-space agentPlane redoes
