@@ -102,6 +102,39 @@ TEST_CASE("Field model: MDE pushes a close pair to the minimum distance and reco
   CHECK(stats[0].at(0) == Approx(1.0));  // both agents moved
 }
 
+TEST_CASE("Field model: same_cell MDE examines the pairs inside one cost cell, wherever the swarm is", "[field]") {
+  // cost cells of 2.5 m (4 per axis over 10 m; with 4 agents the bins are the cost cells themselves). Two
+  // pairs 0.15 m apart: (4.9, 5.05) straddles the cells' border at x = 5 and (5.4, 5.55) lies inside the cell
+  // [5, 7.5). The paper's rule separates only the second; "neighbours" separates both. (Bins that start at the
+  // swarm's bounding box, as before 2026-12-07, put 4.9 and 5.05 in one bin.)
+  const float xs[4] = {4.9f, 5.05f, 5.4f, 5.55f}, ys[4] = {5.3f, 5.3f, 8.3f, 8.3f};
+  for (const std::string pairs : {"same_cell", "neighbours"}) {
+    INFO("mde_pairs " << pairs);
+    Json j = smallField({{"min_distance", 0.3}, {"mde_pairs", pairs}, {"cost_cells", {4, 4, 4}}}, 4);
+    const Scenario sc = swarmsim::parseScenario(j, "bins.json");
+    Simulation sim(sc);
+    swarmsim::SwarmState s = sim.swarms()[0];
+    for (std::size_t i = 0; i < 4; ++i) {
+      s.px[i] = xs[i];
+      s.py[i] = ys[i];
+      s.pz[i] = 5.3f;
+      s.vx[i] = s.vy[i] = s.vz[i] = 0.0f;
+      s.id[i] = static_cast<std::uint32_t>(i);
+    }
+    const auto model = sc.swarms[0].config->build(sim.world());
+    model->step(sim.world(), s, swarmsim::StepInfo{});
+    Eigen::Vector3f at[4];
+    for (std::size_t i = 0; i < 4; ++i) at[s.id[i]] = s.position(i);
+    const float straddling = (at[0] - at[1]).norm(), inside = (at[2] - at[3]).norm();
+    CHECK(inside == Approx(0.3).margin(1e-5));
+    if (pairs == "same_cell") {
+      CHECK(straddling == Approx(0.15).margin(1e-5));
+    } else {
+      CHECK(straddling == Approx(0.3).margin(1e-5));
+    }
+  }
+}
+
 TEST_CASE("Field model: agents descend the cost field to a goal", "[field]") {
   Json j = smallField({{"goals", {{{"type", "sphere"}, {"center", {8, 8, 8}}, {"radius", 1.0}}}}}, 50);
   j["swarms"][0]["spawn"] = {{"type", "sphere"}, {"center", {2, 2, 2}}, {"radius", 1}};

@@ -618,6 +618,51 @@ TEST_CASE("UniformGrid counting sort: points in any order or in last build's cel
   CHECK(orders[0] == orders[2]);
 }
 
+TEST_CASE("UniformGrid buildFromCells: the caller's cells in a stable counting sort, any thread count", "[grid]") {
+  // (the field model's same_cell bins: cells found by the caller, here random in a 7 x 5 x 3 grid, and a run of
+  // each in the cell order of a first build, as a model's state comes from its second step on)
+  std::mt19937 rng(5);
+  const int dims[3] = {7, 5, 3};
+  const double origin[3] = {0, 0, 0}, edge[3] = {1, 1, 1};
+  const std::size_t n = 5000, ncell = 7 * 5 * 3;
+  std::vector<std::uint32_t> cells(n);
+  std::uniform_int_distribution<std::uint32_t> pick(0, ncell - 1);
+  for (auto& c : cells) c = pick(rng);
+  // the reference: a stable sort of the indices by cell
+  std::vector<std::uint32_t> expected(n);
+  for (std::size_t i = 0; i < n; ++i) expected[i] = static_cast<std::uint32_t>(i);
+  std::stable_sort(expected.begin(), expected.end(),
+                   [&](std::uint32_t a, std::uint32_t b) { return cells[a] < cells[b]; });
+  const ThreadCountGuard restore;
+  for (const int threads : {1, 2, 3}) {
+    swarmsim::setThreadCount(threads);
+    UniformGrid g;
+    std::vector<std::uint32_t> given = cells;
+    g.buildFromCells(given, n, dims, origin, edge);
+    CHECK(g.order() == expected);
+    REQUIRE(g.cellCount() == ncell);
+    std::size_t wrong = 0;
+    for (std::size_t c = 0; c < ncell; ++c) {
+      for (std::uint32_t k = g.cellBegin(c); k < g.cellEnd(c); ++k) wrong += cells[g.order()[k]] == c ? 0 : 1;
+    }
+    CHECK(wrong == 0);
+    CHECK(g.cellEnd(ncell - 1) == n);
+    CHECK(g.sortedX().empty());
+    // the same cells in that order: every point stays where it is
+    std::vector<std::uint32_t> again(n);
+    for (std::size_t k = 0; k < n; ++k) again[k] = cells[g.order()[k]];
+    g.buildFromCells(again, n, dims, origin, edge);
+    std::size_t moved = 0;
+    for (std::size_t k = 0; k < n; ++k) moved += g.order()[k] == k ? 0 : 1;
+    CHECK(moved == 0);
+  }
+  UniformGrid g;
+  std::vector<std::uint32_t> beyond = {0, 3, static_cast<std::uint32_t>(ncell)};
+  CHECK_THROWS_AS(g.buildFromCells(beyond, 3, dims, origin, edge), std::invalid_argument);
+  std::vector<std::uint32_t> few = {0};
+  CHECK_THROWS_AS(g.buildFromCells(few, 3, dims, origin, edge), std::invalid_argument);
+}
+
 TEST_CASE("UniformGrid small and invalid inputs", "[grid]") {
   UniformGrid g;
   Points empty;

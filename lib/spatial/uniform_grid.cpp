@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -68,12 +69,7 @@ void UniformGrid::build(const float* x, const float* y, const float* z, std::siz
     inv_[a] = 1.0 / cell;
   }
 
-  const std::size_t ncell = static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2];
-  // counting sort, stable in point index. Each chunk of points (one per thread, in index order) counts and
-  // places its points with cursors over the range of cells it touches; a state kept in last step's cell order
-  // (every model writes it so) gives each chunk a slice of the cells, so the cursors take about one entry per
-  // cell in all. Otherwise (the first step, points in any order, or cursors beyond 16 MiB) one thread sorts
-  // with start_ alone.
+  // each point's cell, and each chunk's lowest and highest cell
   cell_.resize(n);
   const int teams = chunkCount(n);
   auto& range = rangeParts_;  // per chunk: its lowest and highest cell
@@ -90,6 +86,46 @@ void UniformGrid::build(const float* x, const float* y, const float* z, std::siz
     }
     range[static_cast<std::size_t>(t)] = {low, high};
   });
+  sortByCell(x, y, z, n, sortedCopies);
+}
+
+void UniformGrid::buildFromCells(std::vector<std::uint32_t>& cells, std::size_t n, const int dims[3],
+                                 const double origin[3], const double cellSize[3]) {
+  if (cells.size() < n) throw std::invalid_argument("UniformGrid::buildFromCells: fewer cells than points");
+  for (int a = 0; a < 3; ++a) {
+    if (dims[a] < 1 || !(cellSize[a] > 0.0)) throw std::invalid_argument("UniformGrid::buildFromCells: bad grid");
+    dims_[a] = dims[a];
+    origin_[a] = origin[a];
+    inv_[a] = 1.0 / cellSize[a];
+  }
+  slack_ = 0.0f;
+  cell_.swap(cells);
+  const std::size_t ncell = static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2];
+  auto& range = rangeParts_;
+  range.resize(static_cast<std::size_t>(chunkCount(n)));
+  std::atomic<bool> outside{false};
+  parallelChunks(n, [&](std::size_t first, std::size_t last, int t) {
+    std::uint32_t low = 0xffffffffu, high = 0;
+    for (std::size_t i = first; i < last; ++i) {
+      low = std::min(low, cell_[i]);
+      high = std::max(high, cell_[i]);
+    }
+    if (last > first && high >= ncell) outside = true;
+    range[static_cast<std::size_t>(t)] = {low, high};
+  });
+  if (outside) throw std::invalid_argument("UniformGrid::buildFromCells: a cell beyond the grid");
+  sortByCell(nullptr, nullptr, nullptr, n, false);
+}
+
+void UniformGrid::sortByCell(const float* x, const float* y, const float* z, std::size_t n, bool sortedCopies) {
+  const std::size_t ncell = static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2];
+  const auto& range = rangeParts_;
+  const int teams = chunkCount(n);
+  // counting sort, stable in point index. Each chunk of points (one per thread, in index order) counts and
+  // places its points with cursors over the range of cells it touches; a state kept in last step's cell order
+  // (every model writes it so) gives each chunk a slice of the cells, so the cursors take about one entry per
+  // cell in all. Otherwise (the first step, points in any order, or cursors beyond 16 MiB) one thread sorts
+  // with start_ alone.
   // each chunk's first cursor: its cells [lo, hi] one range after another; span = all of them
   std::vector<std::size_t>& base = rangeBase_;
   base.assign(range.size() + 1, 0);

@@ -90,6 +90,11 @@ class UniformGrid {
   // that puts its own arrays in cell order (boids, to save 12 bytes per point).
   void build(const float* x, const float* y, const float* z, std::size_t n, float minCell, double cellsPerPoint = 2.0,
              bool sortedCopies = true);
+  // bin n points whose cells the caller has found: cells[i] is point i's cell (x fastest) of a grid of dims
+  // cells of edge cellSize from origin. The vector is swapped with the grid's own buffer (the caller gets the
+  // last build's back, to fill for the next one). No sorted copies are kept.
+  void buildFromCells(std::vector<std::uint32_t>& cells, std::size_t n, const int dims[3], const double origin[3],
+                      const double cellSize[3]);
 
   // The points, still given in sorted order (point k is sorted position k), have moved by at most `moved`
   // since the last build or moveSorted: their positions in sortedX/Y/Z become these, and the cells stay. A
@@ -252,6 +257,8 @@ class UniformGrid {
   }
 
  private:
+  // the counting sort of build and buildFromCells, from cell_ and rangeParts_
+  void sortByCell(const float* x, const float* y, const float* z, std::size_t n, bool sortedCopies);
   // the box of cells (inclusive) that can hold points within r of some point of cell c
   void cellBox(std::size_t c, float r, int lo[3], int hi[3]) const;
   // gather the points of cells lo..hi (inclusive) into block

@@ -1,6 +1,8 @@
 #include "models/field/field.hpp"
 
 #include <algorithm>
+#include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -28,6 +30,37 @@ inline float bitsAsFloat(std::uint32_t u) {
   float f;
   std::memcpy(&f, &u, sizeof f);
   return f;
+}
+
+// box (lo xyz, hi xyz) grown to hold the m finite points (min and max are exact, so the result does not depend
+// on the order; four at a time where SSE2 is there)
+void extendBox(const float* x, const float* y, const float* z, std::size_t m, std::array<float, 6>& box) {
+  const float* v[3] = {x, y, z};
+  for (std::size_t a = 0; a < 3; ++a) {
+    float lo = box[a], hi = box[3 + a];
+    std::size_t q = 0;
+#if defined(__SSE2__)
+    __m128 l4 = _mm_set1_ps(lo), h4 = _mm_set1_ps(hi);
+    for (; q + 4 <= m; q += 4) {
+      const __m128 p = _mm_loadu_ps(v[a] + q);
+      l4 = _mm_min_ps(l4, p);
+      h4 = _mm_max_ps(h4, p);
+    }
+    alignas(16) float l[4], h[4];
+    _mm_store_ps(l, l4);
+    _mm_store_ps(h, h4);
+    for (int j = 0; j < 4; ++j) {
+      lo = std::min(lo, l[j]);
+      hi = std::max(hi, h[j]);
+    }
+#endif
+    for (; q < m; ++q) {
+      lo = std::min(lo, v[a][q]);
+      hi = std::max(hi, v[a][q]);
+    }
+    box[a] = lo;
+    box[3 + a] = hi;
+  }
 }
 
 using Clock = std::chrono::steady_clock;
@@ -204,15 +237,27 @@ class FieldModel final : public Model {
       }
     }
 
-    // phase 1: velocities from the fields, tentative positions
-    for (auto* a : {&nx_, &ny_, &nz_}) a->resize(n);
+    // phase 1: velocities from the fields, tentative positions. For MDE, each agent's tentative position goes
+    // into the arrays that "neighbours" builds its grid from, or, for "same_cell", its bin is found here: the
+    // bins are the cost grid's cells (binsFor)
+    const bool mde = p_.minDistance > 0.0 && n > 1;
+    const bool sameCell = mde && p_.mdePairs == MdePairs::kSameCell;
+    if (mde && !sameCell) {
+      for (auto* a : {&nx_, &ny_, &nz_}) a->resize(n);
+    }
+    if (sameCell && !(boxKnown_ && boxStep_ == info.step)) findBox(s);
+    const Bins bins = sameCell ? binsFor(n, boxLo_.data(), boxHi_.data()) : Bins{};
+    boxKnown_ = false;
+    if (sameCell) bin_.resize(n);
+    std::uint32_t* const binOf = bin_.data();
+    std::atomic<bool> nonFinite{false};
     carried_.resize(n);
     const float dt = static_cast<float>(world.dt);
     const Vec3 light = p_.light.cast<float>();
     const float gain = static_cast<float>(p_.gain);
     const auto combined = combined_.sampler(), global = global_.sampler(), noise = noise_.sampler();
     const LaneSet lanes = laneSet();
-    const auto agent = [&](std::size_t i, const Vec3& fieldV) {
+    const auto agent = [&](std::size_t i, const Vec3& fieldV, float* tentative) {
       const Vec3 x = s.position(i);
       Vec3 v;
       if (combinedOk_) {
@@ -244,23 +289,38 @@ class FieldModel final : public Model {
 #else
       carried_[i] = Carried{tx, ty, tz, s.id[i], v.x(), v.y(), v.z(), 0.0f};
 #endif
-      nx_[i] = tx;
-      ny_[i] = ty;
-      nz_[i] = tz;
+      tentative[0] = tx;
+      tentative[1] = ty;
+      tentative[2] = tz;
     };
     // each thread's agents in blocks: the combined field's samples of a block first, eight at a time
     parallelChunks(n, [&](std::size_t first, std::size_t last, int) {
       constexpr std::size_t kBlock = 64;
       Vec3 fieldV[kBlock];
+      float tx[kBlock], ty[kBlock], tz[kBlock];
       for (std::size_t b = first; b < last; b += kBlock) {
         const std::size_t m = std::min(kBlock, last - b);
         if (combinedOk_) sampleBatch(combined, s.px.data() + b, s.py.data() + b, s.pz.data() + b, m, fieldV, lanes);
-        for (std::size_t i = b; i < b + m; ++i) agent(i, combinedOk_ ? fieldV[i - b] : Vec3::Zero());
+        for (std::size_t q = 0; q < m; ++q) {
+          float tp[3];
+          agent(b + q, combinedOk_ ? fieldV[q] : Vec3::Zero(), tp);
+          tx[q] = tp[0];
+          ty[q] = tp[1];
+          tz[q] = tp[2];
+        }
+        if (sameCell) {
+          if (!bins.ofBlock(tx, ty, tz, m, binOf + b)) nonFinite.store(true, std::memory_order_relaxed);
+        } else if (mde) {
+          std::copy(tx, tx + m, nx_.data() + b);
+          std::copy(ty, ty + m, ny_.data() + b);
+          std::copy(tz, tz + m, nz_.data() + b);
+        }
       }
 #if defined(__SSE2__)
       _mm_sfence();  // (the streamed records visible to every thread before the next loop)
 #endif
     });
+    if (nonFinite.load()) throw std::runtime_error("field: a non-finite agent position");
 
     // keep clear of obstacles and inside the domain (applied to each final position)
     const Vec3 lo = domain_.min.cast<float>(), hi = domain_.max.cast<float>();
@@ -281,15 +341,17 @@ class FieldModel final : public Model {
       nextVz[k] = r.vz;
     };
     std::size_t moved = 0;
-    if (p_.minDistance > 0.0 && n > 1) {
+    if (mde) {
       const float md = static_cast<float>(p_.minDistance);
       // "neighbours": every pair closer than d_min, found in cells of 2 d_min (an
       // agent's ball overlaps at most 2 cells per axis). "same_cell": the paper's
-      // rule, only pairs sharing a cell of the cost grid's size.
-      const bool sameCell = p_.mdePairs == MdePairs::kSameCell;
-      // (same_cell reads the sorted positions from the agents' records, a group of bins at a time)
-      grid_.build(nx_.data(), ny_.data(), nz_.data(), n,
-                  sameCell ? static_cast<float>(costSpec_.cell.minCoeff()) : 2.0f * md, 8.0, !sameCell);
+      // rule, only pairs sharing a cell of the cost grid (binsFor).
+      if (sameCell) {
+        // (the sorted positions are read from the agents' records, a group of bins at a time)
+        grid_.buildFromCells(bin_, n, bins.dims, bins.origin, bins.edge);
+      } else {
+        grid_.build(nx_.data(), ny_.data(), nz_.data(), n, 2.0f * md, 8.0, true);
+      }
       const auto& order = grid_.order();
       movedFlag_.resize(n);
       if (sameCell) {
@@ -349,7 +411,11 @@ class FieldModel final : public Model {
             nextPz[k] = gz[q] + pushZ[q];
           }
           clearance.settle(nextPx + first, nextPy + first, nextPz + first, m, lo, hi, lanes);
+          // the next step's box (min and max are exact: any order of groups gives the same)
+          extendBox(nextPx + first, nextPy + first, nextPz + first, m,
+                    threadBoxes_[static_cast<std::size_t>(threadIndex())]);
         };
+        threadBoxes_.assign(static_cast<std::size_t>(threadCount()), kEmptyBox);
         if (n < kSerialBelow) {  // few agents: not worth waking the team
           for (std::size_t g = 0; g < groups; ++g) groupWork(g);
         } else {
@@ -357,6 +423,8 @@ class FieldModel final : public Model {
                              std::clamp<std::size_t>(groups / (32 * static_cast<std::size_t>(threadCount())), 1, 4),
                              groupWork);
         }
+        boxFrom(threadBoxes_);
+        boxStep_ = info.step + 1;
       } else {
         const float* sx = grid_.sortedX().data();
         const float* sy = grid_.sortedY().data();
@@ -488,14 +556,131 @@ class FieldModel final : public Model {
   std::size_t frameMoved_ = 0, frameAgentSteps_ = 0, totalMoved_ = 0, totalAgentSteps_ = 0;
   double totalSolveSeconds_ = 0.0;
   long long frameSolves_ = 0, solves_ = 0;
+  // same_cell's bins: the cost grid's cells over the swarm's box (the cells its agents are in at the start of the
+  // step, one more on each side); with fewer than one agent per 8 of those cells, aligned blocks of f x f x f
+  // of them (so that a step's counting sort over the bins stays linear in the agents). of(p) is the bin
+  // holding p, clamped to the box (an agent that moved more than a cell out of it joins a bin at its edge).
+  struct Bins {
+    int dims[3] = {1, 1, 1};
+    double origin[3] = {0, 0, 0}, edge[3] = {1, 1, 1};
+    float o[3] = {0, 0, 0}, inv[3] = {1, 1, 1}, top[3] = {0, 0, 0};
+    std::uint32_t of(float x, float y, float z) const {
+      const auto axis = [&](float v, int a) {
+        const float t = (v - o[a]) * inv[a];
+        return static_cast<int>(std::min(std::max(0.0f, t), top[a]));  // (NaN: 0)
+      };
+      return static_cast<std::uint32_t>((axis(z, 2) * dims[1] + axis(y, 1)) * dims[0] + axis(x, 0));
+    }
+    // of() for m points, four at a time where SSE2 is there (the same operations: max(t, 0) gives its second
+    // operand, 0, for NaN, as std::max(0.0f, t) does); false if a point is not finite (x - x is 0 for every
+    // finite x, NaN for an infinity or NaN)
+    bool ofBlock(const float* x, const float* y, const float* z, std::size_t m, std::uint32_t* out) const {
+      std::size_t q = 0;
+      bool finite = true;
+#if defined(__SSE2__)
+      alignas(16) std::int32_t cell[3][4];
+      __m128 bad = _mm_setzero_ps();
+      for (; q + 4 <= m; q += 4) {
+        const float* v[3] = {x + q, y + q, z + q};
+        __m128 sum = _mm_setzero_ps();
+        for (int a = 0; a < 3; ++a) {
+          const __m128 p = _mm_loadu_ps(v[a]);
+          sum = _mm_add_ps(sum, p);
+          const __m128 t = _mm_mul_ps(_mm_sub_ps(p, _mm_set1_ps(o[a])), _mm_set1_ps(inv[a]));
+          const __m128 c = _mm_min_ps(_mm_max_ps(t, _mm_setzero_ps()), _mm_set1_ps(top[a]));
+          _mm_store_si128(reinterpret_cast<__m128i*>(cell[a]), _mm_cvttps_epi32(c));
+        }
+        const __m128 d = _mm_sub_ps(sum, sum);
+        bad = _mm_or_ps(bad, _mm_cmpunord_ps(d, d));
+        for (int l = 0; l < 4; ++l) {
+          out[q + static_cast<std::size_t>(l)] =
+              static_cast<std::uint32_t>((cell[2][l] * dims[1] + cell[1][l]) * dims[0] + cell[0][l]);
+        }
+      }
+      finite = _mm_movemask_ps(bad) == 0;
+#endif
+      for (; q < m; ++q) {
+        out[q] = of(x[q], y[q], z[q]);
+        const float sum = x[q] + y[q] + z[q];
+        finite = finite && sum - sum == 0.0f;
+      }
+      return finite;
+    }
+  };
+  // the bins for n agents in the box [lo, hi]
+  Bins binsFor(std::size_t n, const float lo[3], const float hi[3]) const {
+    int c0[3], c1[3];
+    for (int a = 0; a < 3; ++a) {
+      const std::size_t u = static_cast<std::size_t>(a);
+      const auto cellOf = [&](float v) {
+        const double t = (static_cast<double>(v) - costSpec_.min[a]) / costSpec_.cell[a];
+        return t > 0.0 ? static_cast<int>(std::min(t, static_cast<double>(costSpec_.n[u] - 1))) : 0;
+      };
+      c0[a] = std::max(0, cellOf(lo[a]) - 1);
+      c1[a] = std::min(costSpec_.n[u] - 1, cellOf(hi[a]) + 1);
+    }
+    const double most = 8.0 * static_cast<double>(n) + 64.0;
+    Bins b;
+    for (int f = 1;; ++f) {
+      double count = 1.0;
+      for (int a = 0; a < 3; ++a) {
+        const int first = c0[a] / f * f;  // blocks aligned on the cost grid
+        b.dims[a] = (c1[a] - first) / f + 1;
+        b.origin[a] = costSpec_.min[a] + first * costSpec_.cell[a];
+        b.edge[a] = costSpec_.cell[a] * f;
+        count *= b.dims[a];
+      }
+      if (count <= most) break;
+    }
+    for (int a = 0; a < 3; ++a) {
+      b.o[a] = static_cast<float>(b.origin[a]);
+      b.inv[a] = static_cast<float>(1.0 / b.edge[a]);
+      b.top[a] = static_cast<float>(b.dims[a] - 1);
+    }
+    return b;
+  }
+  // the box of the agents' positions at the start of step boxStep_ (known when boxKnown_): same_cell's group
+  // pass finds it for the next step from the positions it writes
+  bool boxKnown_ = false;
+  std::uint64_t boxStep_ = 0;
+  std::array<float, 3> boxLo_{}, boxHi_{};
+  std::vector<std::array<float, 6>> threadBoxes_;
+  static constexpr float kBig = std::numeric_limits<float>::max();
+  static constexpr std::array<float, 6> kEmptyBox = {kBig, kBig, kBig, -kBig, -kBig, -kBig};
+  void boxFrom(const std::vector<std::array<float, 6>>& parts) {
+    boxLo_ = {kBig, kBig, kBig};
+    boxHi_ = {-kBig, -kBig, -kBig};
+    for (const auto& p : parts) {
+      for (std::size_t a = 0; a < 3; ++a) {
+        boxLo_[a] = std::min(boxLo_[a], p[a]);
+        boxHi_[a] = std::max(boxHi_[a], p[3 + a]);
+      }
+    }
+    boxKnown_ = true;
+  }
+  // the box of the state's positions (a step that follows none of ours: the first, or one after a resume)
+  void findBox(const SwarmState& s) {
+    threadBoxes_.assign(static_cast<std::size_t>(chunkCount(s.size())), kEmptyBox);
+    parallelChunks(s.size(), [&](std::size_t first, std::size_t last, int t) {
+      std::array<float, 6>& box = threadBoxes_[static_cast<std::size_t>(t)];
+      for (std::size_t i = first; i < last; ++i) {
+        const float p[3] = {s.px[i], s.py[i], s.pz[i]};
+        for (std::size_t a = 0; a < 3; ++a) {
+          box[a] = std::min(box[a], p[a]);
+          box[3 + a] = std::max(box[3 + a], p[a]);
+        }
+      }
+    });
+    boxFrom(threadBoxes_);
+  }
+
   // scratch, reused every step
   UniformGrid grid_;
-  std::vector<float> nx_, ny_, nz_;
+  std::vector<float> nx_, ny_, nz_;  // "neighbours": the tentative positions its grid is built from
+  std::vector<std::uint32_t> bin_;   // "same_cell": each agent's bin (swapped with the grid's buffer)
   // what an agent carries from phase 1 into the state in grid order: its tentative position, id and velocity in
   // one 32-byte record, so that same_cell's gather in grid order reads half a cache line per agent (its grid
-  // keeps no sorted copies of the positions). The tentative positions are also in nx_/ny_/nz_, the arrays the
-  // grid's build reads; reading them from the records instead would move 32 bytes per agent, twice, where
-  // the arrays move 12.
+  // keeps no sorted copies of the positions).
   struct alignas(32) Carried {
     float x, y, z;  // the tentative position
     std::uint32_t id;
