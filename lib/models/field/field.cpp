@@ -293,8 +293,10 @@ class FieldModel final : public Model {
       tentative[1] = ty;
       tentative[2] = tz;
     };
-    // each thread's agents in blocks: the combined field's samples of a block first, eight at a time
-    parallelChunks(n, [&](std::size_t first, std::size_t last, int) {
+    // each thread's agents, then what is left of the other's, in pieces of 8192 (each agent's result is its own,
+    // so how the pieces are shared does not matter; a thread on a slower CPU, or one busy elsewhere, no longer
+    // holds the other at the end), and in blocks: the combined field's samples of a block first, eight at a time
+    parallelForBalancedChunks(n, 8192, [&](std::size_t first, std::size_t last) {
       constexpr std::size_t kBlock = 64;
       Vec3 fieldV[kBlock];
       float tx[kBlock], ty[kBlock], tz[kBlock];
