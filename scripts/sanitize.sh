@@ -42,6 +42,10 @@ quick_exclude+='|Fast marching, second order: errors from a point|Fast marching,
 # the real programs that read our output (ParaView, Blender, ffmpeg): they ran unsanitized above, and the
 # export code they read is covered by the export tests here
 quick_exclude+='|tools: |rows formatted in parallel blocks'
+# process control and whole-command cases that run a scenario several times (30-60 s each sanitized): the
+# signals, resume refusals, fit and evaluate code paths run sanitized in their shorter cases
+quick_exclude+='|Resume refuses another scenario|SIGUSR1 writes a checkpoint|SIGTERM is answered within a second'
+quick_exclude+='|fit: the command fits a value back|evaluate: HDF5 output against itself'
 
 temporary_exclude=''
 

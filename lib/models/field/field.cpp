@@ -619,7 +619,7 @@ class FieldModel final : public Model {
         return t > 0.0 ? static_cast<int>(std::min(t, static_cast<double>(costSpec_.n[u] - 1))) : 0;
       };
       c0[a] = std::max(0, cellOf(lo[a]) - 1);
-      c1[a] = std::min(costSpec_.n[u] - 1, cellOf(hi[a]) + 1);
+      c1[a] = std::max(c0[a], std::min(costSpec_.n[u] - 1, cellOf(hi[a]) + 1));  // (a box of NaNs: one cell)
     }
     const double most = 8.0 * static_cast<double>(n) + 64.0;
     Bins b;
