@@ -561,6 +561,21 @@ bool finishVelocity(Plane* planes, std::size_t count, std::size_t hard, F3 want,
   return infeasible;
 }
 
+// plane i of lane l in the lanes' layout (lp_lanes.hpp: nx of the eight lanes, then ny, nz and b), and back
+inline void putLanePlane(float* soa, std::size_t i, std::size_t l, const Plane& p) {
+  float* row = soa + i * kLpPlaneFloats + l;
+  row[0] = p.nx;
+  row[kLpLanes] = p.ny;
+  row[2 * kLpLanes] = p.nz;
+  row[3 * kLpLanes] = p.b;
+}
+inline Plane lanePlane(const float* soa, std::size_t i, std::size_t l) {
+  const float* row = soa + i * kLpPlaneFloats + l;
+  return Plane{row[0], row[kLpLanes], row[2 * kLpLanes], row[3 * kLpLanes]};
+}
+// the padding of a lane with fewer planes: no velocity violates it
+constexpr Plane kNoPlane{0.0f, 0.0f, 0.0f, -std::numeric_limits<float>::infinity()};
+
 }  // namespace
 
 bool solveVelocity(Plane* planes, std::size_t count, std::size_t hard, const Vec3& pref, float maxSpeed, Plane* scratch,
@@ -591,18 +606,7 @@ std::size_t solveVelocities(Plane* planes, std::size_t stride, const std::size_t
         const std::size_t a = start + l;
         const std::size_t own = l < group ? count[a] : 0;
         const Plane* mine = planes + a * stride;
-        for (std::size_t i = 0; i < most; ++i) {
-          float* row = soa + i * kLpPlaneFloats + l;
-          if (i < own) {
-            row[0] = mine[i].nx;
-            row[kLpLanes] = mine[i].ny;
-            row[2 * kLpLanes] = mine[i].nz;
-            row[3 * kLpLanes] = mine[i].b;
-          } else {  // no velocity violates it
-            row[0] = row[kLpLanes] = row[2 * kLpLanes] = 0.0f;
-            row[3 * kLpLanes] = -std::numeric_limits<float>::infinity();
-          }
-        }
+        for (std::size_t i = 0; i < most; ++i) putLanePlane(soa, i, l, i < own ? mine[i] : kNoPlane);
         const Vec3 p = l < group ? pref[a] : Vec3::Zero();
         want[l] = p.x();
         want[kLpLanes + l] = p.y();
@@ -1013,24 +1017,15 @@ void Solver::solve(const UniformGrid& grid, const float* vx, const float* vy, co
       const std::size_t base = sameHard ? hards[0] : 0;
       float* agentRows = sameHard ? soa + base * kLpPlaneFloats : tmp;
       agentPlanesLanes(rel, T, own, ac.R, ac.invTau, ac.invDt, agentRows, degenerate);
-      const auto put = [&](std::size_t i, std::size_t a, const Plane& pl) {
-        float* row = soa + i * kLpPlaneFloats + a;
-        row[0] = pl.nx;
-        row[kLpLanes] = pl.ny;
-        row[2 * kLpLanes] = pl.nz;
-        row[3 * kLpLanes] = pl.b;
-      };
-      const Plane none{0.0f, 0.0f, 0.0f, -std::numeric_limits<float>::infinity()};  // no velocity violates it
       for (std::size_t a = 0; a < kLpLanes; ++a) {
         const Plane* hardPlanes = ts.planes.data() + a * maxPlanes;
-        for (std::size_t i = 0; i < hards[a]; ++i) put(i, a, hardPlanes[i]);
+        for (std::size_t i = 0; i < hards[a]; ++i) putLanePlane(soa, i, a, hardPlanes[i]);
         if (!sameHard) {
-          for (std::size_t t = 0; t < neighbours[a]; ++t) {
-            const float* row = tmp + t * kLpPlaneFloats + a;
-            put(hards[a] + t, a, Plane{row[0], row[kLpLanes], row[2 * kLpLanes], row[3 * kLpLanes]});
-          }
+          for (std::size_t t = 0; t < neighbours[a]; ++t) putLanePlane(soa, hards[a] + t, a, lanePlane(tmp, t, a));
         }
-        for (std::size_t i = hards[a] + neighbours[a]; i < std::max(most, base + T); ++i) put(i, a, none);
+        for (std::size_t i = hards[a] + neighbours[a]; i < std::max(most, base + T); ++i) {
+          putLanePlane(soa, i, a, kNoPlane);
+        }
         counts[a] = hards[a] + neighbours[a];
       }
       for (std::size_t t = 0; t < T; ++t) {
@@ -1039,10 +1034,10 @@ void Solver::solve(const UniformGrid& grid, const float* vx, const float* vy, co
           if (t >= neighbours[a]) continue;
           const float* in = rel + t * 6 * kLpLanes + a;
           const F3 vi{own[a], own[kLpLanes + a], own[2 * kLpLanes + a]};
-          put(hards[a] + t, a,
-              agentPlane(F3{in[0], in[kLpLanes], in[2 * kLpLanes]}, vi,
-                         F3{in[3 * kLpLanes], in[4 * kLpLanes], in[5 * kLpLanes]},
-                         static_cast<std::uint32_t>(first + a), nbs[a][t], ac));
+          putLanePlane(soa, hards[a] + t, a,
+                       agentPlane(F3{in[0], in[kLpLanes], in[2 * kLpLanes]}, vi,
+                                  F3{in[3 * kLpLanes], in[4 * kLpLanes], in[5 * kLpLanes]},
+                                  static_cast<std::uint32_t>(first + a), nbs[a][t], ac));
         }
       }
       std::uint32_t fail[kLpLanes];
@@ -1052,10 +1047,7 @@ void Solver::solve(const UniformGrid& grid, const float* vx, const float* vy, co
         const std::size_t failed = std::min<std::size_t>(fail[a], counts[a]);
         Plane* planes = ts.planes.data() + a * maxPlanes;
         if (failed < counts[a]) {  // the fallback works on the agent's own planes
-          for (std::size_t i = 0; i < counts[a]; ++i) {
-            const float* row = soa + i * kLpPlaneFloats + a;
-            planes[i] = Plane{row[0], row[kLpLanes], row[2 * kLpLanes], row[3 * kLpLanes]};
-          }
+          for (std::size_t i = 0; i < counts[a]; ++i) planes[i] = lanePlane(soa, i, a);
         }
         Vec3 v;
         const F3 want{own[3 * kLpLanes + a], own[4 * kLpLanes + a], own[5 * kLpLanes + a]};

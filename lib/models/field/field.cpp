@@ -245,9 +245,9 @@ class FieldModel final : public Model {
     if (mde && !sameCell) {
       for (auto* a : {&nx_, &ny_, &nz_}) a->resize(n);
     }
-    if (sameCell && !(boxKnown_ && boxStep_ == info.step)) findBox(s);
+    if (sameCell && boxStep_ != info.step) findBox(s);
     const Bins bins = sameCell ? binsFor(n, boxLo_.data(), boxHi_.data()) : Bins{};
-    boxKnown_ = false;
+    boxStep_ = kNoBox;
     if (sameCell) bin_.resize(n);
     std::uint32_t* const binOf = bin_.data();
     std::atomic<bool> nonFinite{false};
@@ -257,7 +257,8 @@ class FieldModel final : public Model {
     const float gain = static_cast<float>(p_.gain);
     const auto combined = combined_.sampler(), global = global_.sampler(), noise = noise_.sampler();
     const LaneSet lanes = laneSet();
-    const auto agent = [&](std::size_t i, const Vec3& fieldV, float* tentative) {
+    // agent i's velocity into its record; returns its tentative position
+    const auto agent = [&](std::size_t i, const Vec3& fieldV) {
       const Vec3 x = s.position(i);
       Vec3 v;
       if (combinedOk_) {
@@ -289,9 +290,7 @@ class FieldModel final : public Model {
 #else
       carried_[i] = Carried{tx, ty, tz, s.id[i], v.x(), v.y(), v.z(), 0.0f};
 #endif
-      tentative[0] = tx;
-      tentative[1] = ty;
-      tentative[2] = tz;
+      return Vec3(tx, ty, tz);
     };
     // each thread's agents, then what is left of the other's, in pieces of 8192 (each agent's result is its own,
     // so how the pieces are shared does not matter; a thread on a slower CPU, or one busy elsewhere, no longer
@@ -304,11 +303,10 @@ class FieldModel final : public Model {
         const std::size_t m = std::min(kBlock, last - b);
         if (combinedOk_) sampleBatch(combined, s.px.data() + b, s.py.data() + b, s.pz.data() + b, m, fieldV, lanes);
         for (std::size_t q = 0; q < m; ++q) {
-          float tp[3];
-          agent(b + q, combinedOk_ ? fieldV[q] : Vec3::Zero(), tp);
-          tx[q] = tp[0];
-          ty[q] = tp[1];
-          tz[q] = tp[2];
+          const Vec3 tent = agent(b + q, combinedOk_ ? fieldV[q] : Vec3::Zero());
+          tx[q] = tent.x();
+          ty[q] = tent.y();
+          tz[q] = tent.z();
         }
         if (sameCell) {
           if (!bins.ofBlock(tx, ty, tz, m, binOf + b)) nonFinite.store(true, std::memory_order_relaxed);
@@ -611,15 +609,12 @@ class FieldModel final : public Model {
   };
   // the bins for n agents in the box [lo, hi]
   Bins binsFor(std::size_t n, const float lo[3], const float hi[3]) const {
+    const auto low = costSpec_.cellOf(Vec3d(lo[0], lo[1], lo[2])), high = costSpec_.cellOf(Vec3d(hi[0], hi[1], hi[2]));
     int c0[3], c1[3];
     for (int a = 0; a < 3; ++a) {
       const std::size_t u = static_cast<std::size_t>(a);
-      const auto cellOf = [&](float v) {
-        const double t = (static_cast<double>(v) - costSpec_.min[a]) / costSpec_.cell[a];
-        return t > 0.0 ? static_cast<int>(std::min(t, static_cast<double>(costSpec_.n[u] - 1))) : 0;
-      };
-      c0[a] = std::max(0, cellOf(lo[a]) - 1);
-      c1[a] = std::max(c0[a], std::min(costSpec_.n[u] - 1, cellOf(hi[a]) + 1));  // (a box of NaNs: one cell)
+      c0[a] = std::max(0, low[u] - 1);
+      c1[a] = std::max(c0[a], std::min(costSpec_.n[u] - 1, high[u] + 1));  // (a box of NaNs: one cell)
     }
     const double most = 8.0 * static_cast<double>(n) + 64.0;
     Bins b;
@@ -641,10 +636,10 @@ class FieldModel final : public Model {
     }
     return b;
   }
-  // the box of the agents' positions at the start of step boxStep_ (known when boxKnown_): same_cell's group
-  // pass finds it for the next step from the positions it writes
-  bool boxKnown_ = false;
-  std::uint64_t boxStep_ = 0;
+  // the box of the agents' positions at the start of step boxStep_ (kNoBox: none): same_cell's group pass
+  // finds it for the next step from the positions it writes
+  static constexpr std::uint64_t kNoBox = std::numeric_limits<std::uint64_t>::max();
+  std::uint64_t boxStep_ = kNoBox;
   std::array<float, 3> boxLo_{}, boxHi_{};
   std::vector<std::array<float, 6>> threadBoxes_;
   static constexpr float kBig = std::numeric_limits<float>::max();
@@ -658,20 +653,13 @@ class FieldModel final : public Model {
         boxHi_[a] = std::max(boxHi_[a], p[3 + a]);
       }
     }
-    boxKnown_ = true;
   }
   // the box of the state's positions (a step that follows none of ours: the first, or one after a resume)
   void findBox(const SwarmState& s) {
     threadBoxes_.assign(static_cast<std::size_t>(chunkCount(s.size())), kEmptyBox);
     parallelChunks(s.size(), [&](std::size_t first, std::size_t last, int t) {
-      std::array<float, 6>& box = threadBoxes_[static_cast<std::size_t>(t)];
-      for (std::size_t i = first; i < last; ++i) {
-        const float p[3] = {s.px[i], s.py[i], s.pz[i]};
-        for (std::size_t a = 0; a < 3; ++a) {
-          box[a] = std::min(box[a], p[a]);
-          box[3 + a] = std::max(box[3 + a], p[a]);
-        }
-      }
+      extendBox(s.px.data() + first, s.py.data() + first, s.pz.data() + first, last - first,
+                threadBoxes_[static_cast<std::size_t>(t)]);
     });
     boxFrom(threadBoxes_);
   }
