@@ -2,7 +2,6 @@
 // end-to-end runs of the paper's scenarios (no agent inside an obstacle, the
 // swarm reaches its goal, swarms cross, moving goals re-solve the cost field).
 #include <catch2/catch.hpp>
-
 #include <cmath>
 #include <cstring>
 #include <string>
@@ -15,6 +14,7 @@
 #include "io/scenario.hpp"
 #include "models/field/field.hpp"
 #include "run.hpp"
+#include "test_util.hpp"
 
 using swarmsim::Json;
 using swarmsim::Scenario;
@@ -189,6 +189,38 @@ TEST_CASE("Field model: results do not depend on the thread count", "[field][det
   REQUIRE(one.size() == two.size());
   CHECK(std::memcmp(one.data(), two.data(), one.size() * sizeof(float)) == 0);
   CHECK(std::memcmp(one.data(), three.data(), one.size() * sizeof(float)) == 0);
+}
+
+TEST_CASE("Field model: every lane set gives the same bits", "[field][determinism]") {
+  // crossing: curl noise and goals (each velocity one sample of the combined field, records written on lanes
+  // where AVX is there), and phototaxis (the scalar path for each agent)
+  for (const char* name : {"crossing", "phototaxis"}) {
+    Scenario sc = swarmsim::loadScenario(kScenarios + name + ".json", {"frames=3"});
+    const auto run = [&](const char* var, const char* value) {
+      const swarmsim_test::EnvGuard lanes(var, value);
+      Simulation sim(sc);
+      for (int k = 0; k < 30; ++k) sim.step();
+      std::vector<float> out;
+      for (const auto& s : sim.swarms()) {
+        for (std::size_t i = 0; i < s.size(); ++i) {
+          for (const float v : {s.px[i], s.py[i], s.pz[i], s.vx[i], s.vy[i], s.vz[i]}) out.push_back(v);
+          float id;
+          std::memcpy(&id, &s.id[i], sizeof id);
+          out.push_back(id);
+        }
+      }
+      return out;
+    };
+    const auto want = run("SWARMSIM_NO_AVX", "1");  // the SSE lanes
+    const std::pair<const char*, const char*> modes[] = {
+        {"SWARMSIM_NO_AVX2", "1"}, {"SWARMSIM_NO_AVX512", "1"}, {"SWARMSIM_NO_AVX512", nullptr}};
+    for (const auto& [var, value] : modes) {
+      INFO(name << ", " << var << "=" << (value ? value : "(unset)"));
+      const auto got = run(var, value);
+      REQUIRE(got.size() == want.size());
+      CHECK(std::memcmp(got.data(), want.data(), got.size() * sizeof(float)) == 0);
+    }
+  }
 }
 
 TEST_CASE("Field scenarios: no agent ends inside an obstacle", "[field][scenario]") {

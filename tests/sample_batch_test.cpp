@@ -1,5 +1,5 @@
 // sampleBatch (lib/fields/sample_batch.hpp): the same bits as Grid3<Vec3>::Sampler point by point, on every lane
-// set, for points inside the grid, on and beyond its borders, in its last cells, and not finite.
+// set, as Vec3s and padded, for points inside the grid, on and beyond its borders, in its last cells, and not finite.
 #include "fields/sample_batch.hpp"
 
 #include <array>
@@ -57,7 +57,8 @@ TEST_CASE("sampleBatch gives the sampler's bits point by point on every lane set
   for (std::size_t i = 0; i < count; ++i) want[i] = s(Vec3(x[i], y[i], z[i]));
   // the samples are not all alike (the test would pass on a constant)
   CHECK(want[0] != want[1]);
-  for (const auto lanes : {swarmsim::LaneSet::kSse, swarmsim::LaneSet::kAvx, swarmsim::LaneSet::kAvx2}) {
+  for (const auto lanes :
+       {swarmsim::LaneSet::kSse, swarmsim::LaneSet::kAvx, swarmsim::LaneSet::kAvx2, swarmsim::LaneSet::kAvx512}) {
     if (lanes > swarmsim::laneSet()) continue;
     // every count of points, for the eights and the tail
     for (const std::size_t m :
@@ -67,6 +68,14 @@ TEST_CASE("sampleBatch gives the sampler's bits point by point on every lane set
       INFO("lanes " << static_cast<int>(lanes) << ", " << m << " points");
       for (std::size_t i = 0; i < m; ++i) CHECK(std::memcmp(got[i].data(), want[i].data(), sizeof(Vec3)) == 0);
       if (m < count) CHECK(got[m] == Vec3(9.0f, 9.0f, 9.0f));
+      // padded: the same bits, then 0
+      std::vector<swarmsim::PaddedVec3> padded(count, swarmsim::PaddedVec3{{9.0f, 9.0f, 9.0f, 9.0f}});
+      swarmsim::sampleBatch(s, x.data(), y.data(), z.data(), m, padded.data(), lanes);
+      for (std::size_t i = 0; i < m; ++i) {
+        CHECK(std::memcmp(padded[i].v, want[i].data(), sizeof(Vec3)) == 0);
+        CHECK(padded[i].v[3] == 0.0f);
+      }
+      if (m < count) CHECK(padded[m].v[0] == 9.0f);
     }
   }
 }

@@ -117,6 +117,14 @@ struct Grid3 {
       return {{min_[0], min_[1], min_[2]}, {cell_[0], cell_[1], cell_[2]}, {last_[0], last_[1], last_[2]}};
     }
 
+    // the data, its size, and the offsets (in values) of a cell's neighbours along x, y and z that blend()
+    // reads (0 along an axis of one cell), for the batch samplers
+    struct Layout {
+      const T* data;
+      std::size_t size, nx, ny, dx, sy, sz;
+    };
+    Layout layout() const { return {data_, size_, nx_, ny_, dx_, sy_, sz_}; }
+
     // the base cell along axis a of a sample at coordinate x (it reads cells base and base + 1), and f, the
     // fraction of the way to the next cell's centre
     std::size_t base(float x, int a, float& f) const {

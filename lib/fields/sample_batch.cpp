@@ -10,6 +10,10 @@ namespace {
 
 using Constants = Grid3<Vec3>::Sampler::Constants;
 
+// a sample as a Vec3, or padded
+inline void put(Vec3* out, const Vec3& v) { *out = v; }
+inline void put(PaddedVec3* out, const Vec3& v) { *out = PaddedVec3{{v.x(), v.y(), v.z(), 0.0f}}; }
+
 #if SWARMSIM_X86_LANES
 // Sampler::base on eight coordinates of axis a: the cells as integers, the fractions f
 SWARMSIM_AVX inline void basesAvx(const Constants& c, int a, const float* x, std::int32_t* cell, float* f) {
@@ -25,45 +29,107 @@ SWARMSIM_AVX inline void basesAvx(const Constants& c, int a, const float* x, std
   const __m256 atTop = _mm256_set1_ps(last > 0 ? 1.0f : 0.0f);
   const __m256 fr = _mm256_and_ps(inside, _mm256_blendv_ps(mid, atTop, top));
   _mm256_storeu_ps(f, fr);
-  alignas(32) std::int32_t lane[8];
-  _mm256_store_si256(reinterpret_cast<__m256i*>(lane), i);
-  alignas(32) float in[8], tp[8];
-  _mm256_store_ps(in, inside);
-  _mm256_store_ps(tp, top);
-  const std::int32_t topCell = std::max(0, last - 1);
-  for (int l = 0; l < 8; ++l) {
-    std::uint32_t inBits, topBits;
-    std::memcpy(&inBits, &in[l], 4);
-    std::memcpy(&topBits, &tp[l], 4);
-    cell[l] = inBits == 0 ? 0 : (topBits != 0 ? topCell : lane[l]);
-  }
+  // outside below: cell 0; at or beyond the top: the last cell but one; else i (the masks select bits)
+  const __m256 topCell = _mm256_castsi256_ps(_mm256_set1_epi32(std::max(0, last - 1)));
+  const __m256 chosen = _mm256_and_ps(inside, _mm256_blendv_ps(_mm256_castsi256_ps(i), topCell, top));
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(cell), _mm256_castps_si256(chosen));
 }
 
+// The blend as Grid3<Vec3>::Sampler::blendAt does it (the same operations per component in the same order, so the
+// same bits), with the eight corners' addresses and the weights ready: a corner is read as 16 bytes, 4 past its
+// value, so agents whose last corner is the data's last value take the sampler's own path
+// (a sample to a Vec3, or to 16 bytes with a 0 after it; `more`: a sample follows it in `out`)
+SWARMSIM_AVX inline void put(Vec3* out, __m128 r, bool more) {
+  float* const to = out->data();
+  if (more) {
+    _mm_storeu_ps(to, r);  // (its fourth float lands on the next sample's x, written after it)
+  } else {
+    _mm_storel_pi(reinterpret_cast<__m64*>(to), r);
+    _mm_store_ss(to + 2, _mm_movehl_ps(r, r));
+  }
+}
+SWARMSIM_AVX inline void put(PaddedVec3* out, __m128 r, bool) {
+  _mm_store_ps(out->v, _mm_blend_ps(r, _mm_setzero_ps(), 8));
+}
+
+template <typename Out>
 SWARMSIM_AVX __attribute__((flatten)) void sampleAvx(const Grid3<Vec3>::Sampler& s, const float* x, const float* y,
-                                                     const float* z, std::size_t n, Vec3* out) {
+                                                     const float* z, std::size_t n, Out* out) {
   const Constants c = s.constants();
-  std::size_t i = 0;
-  for (; i + 8 <= n; i += 8) {
+  const auto layout = s.layout();
+  const float* raw = layout.data->data();
+  const std::size_t nx = layout.nx, ny = layout.ny, dx = layout.dx, sy = layout.sy, sz = layout.sz;
+  // the corners of base value b at corner[k] + 3 b (floats): x first, then y, then z
+  const float* const c000 = raw;
+  const float* const c100 = raw + 3 * dx;
+  const float* const c010 = raw + 3 * sy;
+  const float* const c110 = raw + 3 * (sy + dx);
+  const float* const c001 = raw + 3 * sz;
+  const float* const c101 = raw + 3 * (sz + dx);
+  const float* const c011 = raw + 3 * (sz + sy);
+  const float* const c111 = raw + 3 * (sz + sy + dx);
+  const std::size_t limit = layout.size - (sz + sy + dx + 1);  // b < limit: every 16-byte read inside the data
+  const auto lerp = [](__m128 p, __m128 q, const float* gw, const float* fw) SWARMSIM_AVX {
+    return _mm_add_ps(_mm_mul_ps(p, _mm_broadcast_ss(gw)), _mm_mul_ps(q, _mm_broadcast_ss(fw)));
+  };
+  // eight points' base values and weights; the next eight's are found, and their corners' rows fetched, while
+  // this eight is blended
+  struct Eight {
     std::int32_t cell[3][8];
+    std::size_t b[8];
     alignas(32) float f[3][8];
-    basesAvx(c, 0, x + i, cell[0], f[0]);
-    basesAvx(c, 1, y + i, cell[1], f[1]);
-    basesAvx(c, 2, z + i, cell[2], f[2]);
+    alignas(32) float g[3][8];
+  };
+  Eight blocks[2];
+  const auto prepare = [&](std::size_t first, Eight& e) SWARMSIM_AVX {
+    basesAvx(c, 0, x + first, e.cell[0], e.f[0]);
+    basesAvx(c, 1, y + first, e.cell[1], e.f[1]);
+    basesAvx(c, 2, z + first, e.cell[2], e.f[2]);
+    for (int a = 0; a < 3; ++a) _mm256_store_ps(e.g[a], _mm256_sub_ps(_mm256_set1_ps(1.0f), _mm256_load_ps(e.f[a])));
     for (int l = 0; l < 8; ++l) {
-      const std::size_t i0[3] = {static_cast<std::size_t>(cell[0][l]), static_cast<std::size_t>(cell[1][l]),
-                                 static_cast<std::size_t>(cell[2][l])};
-      const float fl[3] = {f[0][l], f[1][l], f[2][l]};
-      out[i + l] = s.blendAt(s.cornersOf(i0, fl));
+      e.b[l] = (static_cast<std::size_t>(e.cell[2][l]) * ny + static_cast<std::size_t>(e.cell[1][l])) * nx +
+               static_cast<std::size_t>(e.cell[0][l]);
+      const float* row = c000 + 3 * e.b[l];
+      __builtin_prefetch(row);
+      __builtin_prefetch(row + 3 * sy);
+      __builtin_prefetch(row + 3 * sz);
+      __builtin_prefetch(row + 3 * (sz + sy));
+    }
+  };
+  std::size_t i = 0;
+  if (n >= 8) prepare(0, blocks[0]);
+  for (int cur = 0; i + 8 <= n; i += 8, cur ^= 1) {
+    if (i + 16 <= n) prepare(i + 8, blocks[cur ^ 1]);
+    const Eight& e = blocks[cur];
+    for (int l = 0; l < 8; ++l) {
+      const std::size_t b = e.b[l];
+      if (b >= limit) {
+        const std::size_t i0[3] = {static_cast<std::size_t>(e.cell[0][l]), static_cast<std::size_t>(e.cell[1][l]),
+                                   static_cast<std::size_t>(e.cell[2][l])};
+        const float fl[3] = {e.f[0][l], e.f[1][l], e.f[2][l]};
+        put(out + i + l, s.blendAt(s.cornersOf(i0, fl)));
+        continue;
+      }
+      const std::size_t o = 3 * b;
+      const float *const f = &e.f[0][l], *const g = &e.g[0][l];  // (axis a's weights 8 floats on)
+      const __m128 v00 = lerp(_mm_loadu_ps(c000 + o), _mm_loadu_ps(c100 + o), g, f);
+      const __m128 v10 = lerp(_mm_loadu_ps(c010 + o), _mm_loadu_ps(c110 + o), g, f);
+      const __m128 v01 = lerp(_mm_loadu_ps(c001 + o), _mm_loadu_ps(c101 + o), g, f);
+      const __m128 v11 = lerp(_mm_loadu_ps(c011 + o), _mm_loadu_ps(c111 + o), g, f);
+      const __m128 r = lerp(lerp(v00, v10, g + 8, f + 8), lerp(v01, v11, g + 8, f + 8), g + 16, f + 16);
+      put(out + i + l, r, i + l + 1 < n);
     }
   }
-  for (; i < n; ++i) out[i] = s(Vec3(x[i], y[i], z[i]));
+  for (; i < n; ++i) put(out + i, s(Vec3(x[i], y[i], z[i])));
 }
 #endif
 
 }  // namespace
 
-void sampleBatch(const Grid3<Vec3>::Sampler& s, const float* x, const float* y, const float* z, std::size_t n,
-                 Vec3* out, LaneSet lanes) {
+namespace {
+template <typename Out>
+void sampleAny(const Grid3<Vec3>::Sampler& s, const float* x, const float* y, const float* z, std::size_t n, Out* out,
+               LaneSet lanes) {
 #if SWARMSIM_X86_LANES
   if (lanes != LaneSet::kSse) {
     sampleAvx(s, x, y, z, n, out);
@@ -72,7 +138,18 @@ void sampleBatch(const Grid3<Vec3>::Sampler& s, const float* x, const float* y, 
 #else
   (void)lanes;
 #endif
-  for (std::size_t i = 0; i < n; ++i) out[i] = s(Vec3(x[i], y[i], z[i]));
+  for (std::size_t i = 0; i < n; ++i) put(out + i, s(Vec3(x[i], y[i], z[i])));
+}
+}  // namespace
+
+void sampleBatch(const Grid3<Vec3>::Sampler& s, const float* x, const float* y, const float* z, std::size_t n,
+                 Vec3* out, LaneSet lanes) {
+  sampleAny(s, x, y, z, n, out, lanes);
+}
+
+void sampleBatch(const Grid3<Vec3>::Sampler& s, const float* x, const float* y, const float* z, std::size_t n,
+                 PaddedVec3* out, LaneSet lanes) {
+  sampleAny(s, x, y, z, n, out, lanes);
 }
 
 }  // namespace swarmsim

@@ -32,6 +32,27 @@ inline float bitsAsFloat(std::uint32_t u) {
   return f;
 }
 
+#if SWARMSIM_X86_LANES
+// Phase 1 where each velocity is the combined field's sample v (padded with a 0): the m agents' records, 32 bytes
+// each (the tentative position x + v dt, the id's bits, v and 0), streamed to `rec`, and the tentative positions
+// to tx, ty and tz. The scalar code's operations, lane by lane
+SWARMSIM_AVX void recordsAvx(const float* px, const float* py, const float* pz, const std::uint32_t* id,
+                             const PaddedVec3* v, std::size_t m, float dt, float* rec, float* tx, float* ty,
+                             float* tz) {
+  const __m128 dt4 = _mm_set1_ps(dt);
+  for (std::size_t q = 0; q < m; ++q) {
+    const __m128 vel = _mm_load_ps(v[q].v);
+    const __m128 t = _mm_add_ps(_mm_setr_ps(px[q], py[q], pz[q], 0.0f), _mm_mul_ps(vel, dt4));
+    const __m128 idBits = _mm_castsi128_ps(_mm_cvtsi32_si128(static_cast<int>(id[q])));
+    _mm_stream_ps(rec + 8 * q, _mm_insert_ps(t, idBits, 0x30));
+    _mm_stream_ps(rec + 8 * q + 4, vel);
+    _mm_store_ss(tx + q, t);
+    _mm_store_ss(ty + q, _mm_movehdup_ps(t));
+    _mm_store_ss(tz + q, _mm_movehl_ps(t, t));
+  }
+}
+#endif
+
 // box (lo xyz, hi xyz) grown to hold the m finite points (min and max are exact, so the result does not depend
 // on the order; four at a time where SSE2 is there)
 void extendBox(const float* x, const float* y, const float* z, std::size_t m, std::array<float, 6>& box) {
@@ -257,6 +278,8 @@ class FieldModel final : public Model {
     const float gain = static_cast<float>(p_.gain);
     const auto combined = combined_.sampler(), global = global_.sampler(), noise = noise_.sampler();
     const LaneSet lanes = laneSet();
+    // (the velocity is the combined field's sample, and AVX is there: records eight floats at a time)
+    const bool direct = combinedOk_ && !p_.phototaxis && lanes != LaneSet::kSse;
     // agent i's velocity into its record; returns its tentative position
     const auto agent = [&](std::size_t i, const Vec3& fieldV) {
       const Vec3 x = s.position(i);
@@ -298,15 +321,26 @@ class FieldModel final : public Model {
     parallelForBalancedChunks(n, 8192, [&](std::size_t first, std::size_t last) {
       constexpr std::size_t kBlock = 64;
       Vec3 fieldV[kBlock];
+      PaddedVec3 padded[kBlock];
       float tx[kBlock], ty[kBlock], tz[kBlock];
       for (std::size_t b = first; b < last; b += kBlock) {
         const std::size_t m = std::min(kBlock, last - b);
-        if (combinedOk_) sampleBatch(combined, s.px.data() + b, s.py.data() + b, s.pz.data() + b, m, fieldV, lanes);
-        for (std::size_t q = 0; q < m; ++q) {
-          const Vec3 tent = agent(b + q, combinedOk_ ? fieldV[q] : Vec3::Zero());
-          tx[q] = tent.x();
-          ty[q] = tent.y();
-          tz[q] = tent.z();
+        const float *const px = s.px.data() + b, *const py = s.py.data() + b, *const pz = s.pz.data() + b;
+#if SWARMSIM_X86_LANES
+        if (direct) {
+          sampleBatch(combined, px, py, pz, m, padded, lanes);
+          recordsAvx(px, py, pz, s.id.data() + b, padded, m, dt, reinterpret_cast<float*>(carried_.data() + b), tx, ty,
+                     tz);
+        } else
+#endif
+        {
+          if (combinedOk_) sampleBatch(combined, px, py, pz, m, fieldV, lanes);
+          for (std::size_t q = 0; q < m; ++q) {
+            const Vec3 tent = agent(b + q, combinedOk_ ? fieldV[q] : Vec3::Zero());
+            tx[q] = tent.x();
+            ty[q] = tent.y();
+            tz[q] = tent.z();
+          }
         }
         if (sameCell) {
           if (!bins.ofBlock(tx, ty, tz, m, binOf + b)) nonFinite.store(true, std::memory_order_relaxed);
