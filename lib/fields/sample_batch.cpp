@@ -15,24 +15,20 @@ inline void put(Vec3* out, const Vec3& v) { *out = v; }
 inline void put(PaddedVec3* out, const Vec3& v) { *out = PaddedVec3{{v.x(), v.y(), v.z(), 0.0f}}; }
 
 #if SWARMSIM_X86_LANES
-// Sampler::base on eight coordinates of axis a: the cells as integers, the fractions f
+// Sampler::base on eight coordinates of axis a: the cells as integers, the fractions f. With t clamped to
+// [0, last] (NaN to 0: max returns its second operand when one is NaN) and the cell trunc(t) held to last − 1 at
+// most, f = t − cell gives base()'s cases without a branch or a blend: t ≤ 0 or NaN: cell 0, f 0; t ≥ last: the
+// last cell but one and f 1 (0 on a grid of one cell); between: trunc(t) and t − trunc(t)
 SWARMSIM_AVX inline void basesAvx(const Constants& c, int a, const float* x, std::int32_t* cell, float* f) {
   const __m256 t = _mm256_sub_ps(
       _mm256_div_ps(_mm256_sub_ps(_mm256_loadu_ps(x), _mm256_set1_ps(c.min[a])), _mm256_set1_ps(c.cell[a])),
       _mm256_set1_ps(0.5f));
   const int last = c.last[a];
-  const __m256 inside = _mm256_cmp_ps(t, _mm256_setzero_ps(), _CMP_GT_OQ);  // (NaN: false)
-  const __m256 top = _mm256_cmp_ps(t, _mm256_set1_ps(static_cast<float>(last)), _CMP_GE_OQ);
-  // below the top: i = (int) t, f = t - i (t > 0, so the conversion's truncation is the floor)
-  const __m256i i = _mm256_cvttps_epi32(_mm256_min_ps(t, _mm256_set1_ps(static_cast<float>(last))));
-  const __m256 mid = _mm256_sub_ps(t, _mm256_cvtepi32_ps(i));
-  const __m256 atTop = _mm256_set1_ps(last > 0 ? 1.0f : 0.0f);
-  const __m256 fr = _mm256_and_ps(inside, _mm256_blendv_ps(mid, atTop, top));
-  _mm256_storeu_ps(f, fr);
-  // outside below: cell 0; at or beyond the top: the last cell but one; else i (the masks select bits)
-  const __m256 topCell = _mm256_castsi256_ps(_mm256_set1_epi32(std::max(0, last - 1)));
-  const __m256 chosen = _mm256_and_ps(inside, _mm256_blendv_ps(_mm256_castsi256_ps(i), topCell, top));
-  _mm256_storeu_si256(reinterpret_cast<__m256i*>(cell), _mm256_castps_si256(chosen));
+  const __m256 tc = _mm256_min_ps(_mm256_max_ps(t, _mm256_setzero_ps()), _mm256_set1_ps(static_cast<float>(last)));
+  const __m256 base = _mm256_min_ps(_mm256_round_ps(tc, _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC),
+                                    _mm256_set1_ps(static_cast<float>(std::max(0, last - 1))));
+  _mm256_storeu_ps(f, _mm256_sub_ps(tc, base));
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(cell), _mm256_cvttps_epi32(base));
 }
 
 // The blend as Grid3<Vec3>::Sampler::blendAt does it (the same operations per component in the same order, so the
