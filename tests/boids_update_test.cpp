@@ -222,3 +222,36 @@ TEST_CASE("boids update: the lanes give the equations' velocities, with the same
     }
   }
 }
+
+TEST_CASE("boids unit velocities: normalizedOrZero's bits on every lane set, zero for a vanishing velocity",
+          "[boids][lanes]") {
+  std::mt19937 gen(11);
+  std::uniform_real_distribution<float> u(-3.0f, 3.0f);
+  std::vector<float> vx, vy, vz;
+  for (int i = 0; i < 203; ++i) {  // (not a whole number of eights: the tail too)
+    vx.push_back(u(gen));
+    vy.push_back(u(gen));
+    vz.push_back(u(gen));
+  }
+  // zero, a squared norm at and below the 1e-30 cut, and one just above it
+  const float tiny[][3] = {{0.0f, 0.0f, 0.0f}, {1e-16f, 0.0f, 0.0f}, {5e-16f, 5e-16f, 5e-16f}, {0.0f, 2e-15f, 0.0f}};
+  for (std::size_t k = 0; k < 4; ++k) {
+    vx[3 + 8 * k] = tiny[k][0];
+    vy[3 + 8 * k] = tiny[k][1];
+    vz[3 + 8 * k] = tiny[k][2];
+  }
+  const std::size_t n = vx.size();
+  for (const LaneSet lanes : swarmsim_test::laneSetsOfThisCpu()) {
+    std::vector<float> ux(n, 9.0f), uy(n, 9.0f), uz(n, 9.0f);
+    unitVelocities(vx.data(), vy.data(), vz.data(), n, ux.data(), uy.data(), uz.data(), lanes);
+    INFO("lane set " << static_cast<int>(lanes));
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vec3 want = normalizedOrZero(Vec3(vx[i], vy[i], vz[i]));
+      const float got[3] = {ux[i], uy[i], uz[i]};
+      CHECK(std::memcmp(got, want.data(), sizeof got) == 0);
+    }
+    // the vanishing ones are zero; the one above the cut has unit length
+    CHECK((ux[3] == 0.0f && uy[11] == 0.0f && uz[19] == 0.0f));
+    CHECK(uy[27] == 1.0f);
+  }
+}

@@ -42,11 +42,10 @@ class Boids final : public Model {
     grid_.build(s.px.data(), s.py.data(), s.pz.data(), n, r3_, 2.0, false);
     putInCellOrder(s);
     lanes_.prepare(s.px.data(), s.py.data(), s.pz.data(), n);
-    parallelFor(n, [&](std::size_t k) {
-      const Vec3 u = normalizedOrZero(s.velocity(k));
-      lanes_.ux[k] = u.x();
-      lanes_.uy[k] = u.y();
-      lanes_.uz[k] = u.z();
+    const LaneSet laneKind = laneSet();
+    parallelChunks(n, [&](std::size_t first, std::size_t last, int) {
+      unitVelocities(s.vx.data() + first, s.vy.data() + first, s.vz.data() + first, last - first,
+                     lanes_.ux.data() + first, lanes_.uy.data() + first, lanes_.uz.data() + first, laneKind);
     });
 
     const float dt = static_cast<float>(world.dt);
@@ -74,7 +73,6 @@ class Boids final : public Model {
     const bool jitter = p_.jitter > 0.0;
     const std::uint64_t seed = world.seed, stepIndex = info.step;
     const std::uint32_t swarmIndex = info.swarmIndex;
-    const LaneSet laneKind = laneSet();
     scratch_.resize(static_cast<std::size_t>(threadCount()));
     const std::size_t nx = static_cast<std::size_t>(grid_.dim(0));
     // row by row of cells (the neighbouring rows found once per row), cell by cell along it; a row's agents are

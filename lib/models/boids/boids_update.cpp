@@ -126,7 +126,35 @@ inline void updateRow(const BoidsUpdateRow& r, std::size_t m, const BoidsUpdateP
   }
 }
 
+// normalizedOrZero of m velocities, eight at a time (the same operations: x² + (y² + z²), as Eigen's unrolled sum
+// splits three terms, its square root, and
+// each component divided by it; zero where the squared norm is not above 1e-30)
+template <typename L>
+inline void unitsOf(const float* vx, const float* vy, const float* vz, std::size_t m, float* ux, float* uy, float* uz) {
+  using V = typename L::V;
+  std::size_t i = 0;
+  for (; i + kLanes <= m; i += kLanes) {
+    const V x = L::load(vx + i), y = L::load(vy + i), z = L::load(vz + i);
+    const V n2 = L::add(L::mul(x, x), L::add(L::mul(y, y), L::mul(z, z)));
+    const V keep = L::lt(L::set1(1e-30f), n2);
+    const V n = L::sqrt(n2);
+    L::store(ux + i, L::band(keep, L::div(x, n)));
+    L::store(uy + i, L::band(keep, L::div(y, n)));
+    L::store(uz + i, L::band(keep, L::div(z, n)));
+  }
+  for (; i < m; ++i) {
+    const Vec3 u = normalizedOrZero(Vec3(vx[i], vy[i], vz[i]));
+    ux[i] = u.x();
+    uy[i] = u.y();
+    uz[i] = u.z();
+  }
+}
+
 #if SWARMSIM_X86_LANES
+SWARMSIM_AVX __attribute__((flatten)) void unitsAvx(const float* vx, const float* vy, const float* vz, std::size_t m,
+                                                    float* ux, float* uy, float* uz) {
+  unitsOf<AvxLanes>(vx, vy, vz, m, ux, uy, uz);
+}
 __attribute__((flatten)) void updateSse(const BoidsUpdateRow& r, std::size_t m, const BoidsUpdateParams& p) {
   updateRow<SseLanes>(r, m, p);
 }
@@ -149,6 +177,19 @@ void boidsUpdate(const BoidsUpdateRow& row, std::size_t m, const BoidsUpdatePara
   (void)lanes;
   updateRow<ScalarLanes>(row, m, p);
 #endif
+}
+
+void unitVelocities(const float* vx, const float* vy, const float* vz, std::size_t m, float* ux, float* uy, float* uz,
+                    LaneSet lanes) {
+#if SWARMSIM_X86_LANES
+  if (lanes != LaneSet::kSse) {
+    unitsAvx(vx, vy, vz, m, ux, uy, uz);
+    return;
+  }
+#else
+  (void)lanes;
+#endif
+  unitsOf<ScalarLanes>(vx, vy, vz, m, ux, uy, uz);
 }
 
 }  // namespace swarmsim

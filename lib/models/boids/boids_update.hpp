@@ -33,4 +33,8 @@ struct BoidsUpdateRow {
 };
 void boidsUpdate(const BoidsUpdateRow& row, std::size_t m, const BoidsUpdateParams& p, LaneSet lanes);
 
+// u[i] = normalizedOrZero(v[i]) for i < m, eight at a time where AVX is there (the same bits)
+void unitVelocities(const float* vx, const float* vy, const float* vz, std::size_t m, float* ux, float* uy, float* uz,
+                    LaneSet lanes);
+
 }  // namespace swarmsim
