@@ -3,7 +3,10 @@
 // The reference is an exhaustive scan over the original points with the same
 // float arithmetic the grid documents (dx = p - q in float, d2 = dx*dx + dy*dy
 // + dz*dz, included when d2 <= r*r), so the visited sets must match exactly.
+#include "spatial/uniform_grid.hpp"
+
 #include <algorithm>
+#include <catch2/catch.hpp>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -14,10 +17,8 @@
 #include <string>
 #include <vector>
 
-#include <catch2/catch.hpp>
-
 #include "core/parallel.hpp"
-#include "spatial/uniform_grid.hpp"
+#include "test_util.hpp"
 
 using swarmsim::UniformGrid;
 
@@ -701,6 +702,40 @@ TEST_CASE("UniformGrid rejects NaN positions", "[grid]") {
   bad.add(std::numeric_limits<float>::quiet_NaN(), 0.0f, 0.0f);
   bad.add(1.0f, 1.0f, 1.0f);
   CHECK_THROWS_AS(build(g, bad, 1.0f), std::runtime_error);
+}
+
+TEST_CASE("UniformGrid rejects a NaN among many points, on every axis", "[grid]") {
+  // (enough points for the lanes' box, eight at a time, and a NaN in the middle of an eight)
+  for (int axis = 0; axis < 3; ++axis) {
+    Points p;
+    std::mt19937 gen(5);
+    std::uniform_real_distribution<float> u(-2.0f, 2.0f);
+    for (int i = 0; i < 100; ++i) p.add(u(gen), u(gen), u(gen));
+    (axis == 0 ? p.x : axis == 1 ? p.y : p.z)[37] = std::numeric_limits<float>::quiet_NaN();
+    UniformGrid g;
+    INFO("axis " << axis);
+    CHECK_THROWS_AS(build(g, p, 0.5f), std::runtime_error);
+  }
+}
+
+TEST_CASE("UniformGrid: the same box, cells and order with and without AVX", "[grid]") {
+  Points p;
+  std::mt19937 gen(9);
+  std::uniform_real_distribution<float> u(-3.0f, 5.0f);
+  for (int i = 0; i < 2003; ++i) p.add(u(gen), u(gen) * 0.5f, u(gen) * 2.0f);
+  p.add(-0.0f, 0.0f, 0.0f);  // (a signed zero among them)
+  const auto grid = [&](const char* noAvx) {
+    const swarmsim_test::EnvGuard lanes("SWARMSIM_NO_AVX", noAvx);
+    UniformGrid g;
+    build(g, p, 0.37f);
+    std::vector<std::uint32_t> out(g.order().begin(), g.order().end());
+    for (std::size_t c = 0; c <= g.cellCount(); ++c) out.push_back(c < g.cellCount() ? g.cellBegin(c) : 0u);
+    for (int a = 0; a < 3; ++a) out.push_back(static_cast<std::uint32_t>(g.dim(a)));
+    return out;
+  };
+  const auto scalar = grid("1"), lanes = grid(nullptr);
+  CHECK(scalar.size() > p.size() + 100);  // (cells as well as the order)
+  CHECK(scalar == lanes);
 }
 
 namespace {

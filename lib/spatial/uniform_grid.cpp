@@ -7,9 +7,81 @@
 #include <limits>
 #include <stdexcept>
 
+#include "core/lanes.hpp"
 #include "core/parallel.hpp"
 
 namespace swarmsim {
+
+namespace {
+
+#if SWARMSIM_X86_LANES
+// points [first, last)'s cells, four at a time: UniformGrid::cellCoord's arithmetic in double (t clamped to
+// [0, dims - 1] before the conversion, NaN to 0: max returns its second operand then), the flat index in 32 bits
+// (its low bits, as the cast of the scalar index); low and high lowered and raised to the cells' range. Returns
+// the first point it left to the caller
+SWARMSIM_AVX std::size_t cellsAvx(const float* x, const float* y, const float* z, std::size_t first, std::size_t last,
+                                  const double origin[3], const double inv[3], const int dims[3], std::uint32_t* cell,
+                                  std::uint32_t& low, std::uint32_t& high) {
+  const float* v[3] = {x, y, z};
+  __m256d o[3], in[3], top[3];
+  for (int a = 0; a < 3; ++a) {
+    o[a] = _mm256_set1_pd(origin[a]);
+    in[a] = _mm256_set1_pd(inv[a]);
+    top[a] = _mm256_set1_pd(static_cast<double>(dims[a] - 1));
+  }
+  const __m128i d0 = _mm_set1_epi32(dims[0]), d1 = _mm_set1_epi32(dims[1]);
+  __m128i lo4 = _mm_set1_epi32(-1), hi4 = _mm_setzero_si128();
+  std::size_t i = first;
+  for (; i + 4 <= last; i += 4) {
+    __m128i c[3];
+    for (int a = 0; a < 3; ++a) {
+      const __m256d t = _mm256_mul_pd(_mm256_sub_pd(_mm256_cvtps_pd(_mm_loadu_ps(v[a] + i)), o[a]), in[a]);
+      c[a] = _mm256_cvttpd_epi32(_mm256_min_pd(_mm256_max_pd(t, _mm256_setzero_pd()), top[a]));
+    }
+    const __m128i flat = _mm_add_epi32(_mm_mullo_epi32(_mm_add_epi32(_mm_mullo_epi32(c[2], d1), c[1]), d0), c[0]);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(cell + i), flat);
+    lo4 = _mm_min_epu32(lo4, flat);
+    hi4 = _mm_max_epu32(hi4, flat);
+  }
+  alignas(16) std::uint32_t l[4], h[4];
+  _mm_store_si128(reinterpret_cast<__m128i*>(l), lo4);
+  _mm_store_si128(reinterpret_cast<__m128i*>(h), hi4);
+  for (int k = 0; k < 4; ++k) {
+    low = std::min(low, l[k]);
+    high = std::max(high, h[k]);
+  }
+  return i;
+}
+
+// points [first, last) into the box r (lo xyz, hi xyz; r[6] set to 1 at a NaN) eight at a time: min(v, lo) and
+// max(v, hi) choose as std::min(lo, v) and std::max(hi, v) do, so the box is the same bits. Returns the first
+// point it left to the caller
+SWARMSIM_AVX std::size_t boxAvx(const float* x, const float* y, const float* z, std::size_t first, std::size_t last,
+                                std::array<float, 7>& r) {
+  const float* v[3] = {x, y, z};
+  std::size_t i = first;
+  for (int a = 0; a < 3; ++a) {
+    __m256 lo = _mm256_set1_ps(r[a]), hi = _mm256_set1_ps(r[3 + a]), nan = _mm256_setzero_ps();
+    for (i = first; i + 8 <= last; i += 8) {
+      const __m256 p = _mm256_loadu_ps(v[a] + i);
+      lo = _mm256_min_ps(p, lo);
+      hi = _mm256_max_ps(p, hi);
+      nan = _mm256_or_ps(nan, _mm256_cmp_ps(p, p, _CMP_UNORD_Q));
+    }
+    alignas(32) float l[8], h[8];
+    _mm256_store_ps(l, lo);
+    _mm256_store_ps(h, hi);
+    for (int k = 0; k < 8; ++k) {
+      r[a] = std::min(r[a], l[k]);
+      r[3 + a] = std::max(r[3 + a], h[k]);
+    }
+    if (_mm256_movemask_ps(nan) != 0) r[6] = 1.0f;
+  }
+  return i;
+}
+#endif
+
+}  // namespace
 
 void UniformGrid::build(const float* x, const float* y, const float* z, std::size_t n, float minCell,
                         double cellsPerPoint, bool sortedCopies) {
@@ -20,9 +92,15 @@ void UniformGrid::build(const float* x, const float* y, const float* z, std::siz
   const int chunks = chunkCount(n);
   std::vector<std::array<float, 7>>& part = bboxParts_;  // kept: no allocation per step
   part.resize(static_cast<std::size_t>(chunks));
+  const bool avx = useAvx();
+  (void)avx;  // (only on x86)
   parallelChunks(n, [&](std::size_t first, std::size_t last, int t) {
     std::array<float, 7> r = {kBig, kBig, kBig, -kBig, -kBig, -kBig, 0.0f};  // lo xyz, hi xyz, any NaN
-    for (std::size_t i = first; i < last; ++i) {
+    std::size_t from = first;
+#if SWARMSIM_X86_LANES
+    if (avx) from = boxAvx(x, y, z, first, last, r);
+#endif
+    for (std::size_t i = from; i < last; ++i) {
       const float v[3] = {x[i], y[i], z[i]};
       for (int a = 0; a < 3; ++a) {
         r[a] = std::min(r[a], v[a]);
@@ -76,7 +154,11 @@ void UniformGrid::build(const float* x, const float* y, const float* z, std::siz
   range.resize(static_cast<std::size_t>(teams));
   parallelChunks(n, [&](std::size_t first, std::size_t last, int t) {
     std::uint32_t low = 0xffffffffu, high = 0;
-    for (std::size_t i = first; i < last; ++i) {
+    std::size_t from = first;
+#if SWARMSIM_X86_LANES
+    if (avx) from = cellsAvx(x, y, z, first, last, origin_, inv_, dims_, cell_.data(), low, high);
+#endif
+    for (std::size_t i = from; i < last; ++i) {
       const auto c = static_cast<std::uint32_t>(
           (static_cast<std::size_t>(cellCoord(z[i], 2)) * dims_[1] + cellCoord(y[i], 1)) * dims_[0] +
           cellCoord(x[i], 0));
