@@ -173,24 +173,31 @@ struct Grid3 {
 };
 
 #if defined(__SSE2__)
-// A grid of vectors: the same operations per component as the generic sample (so the same bits), on one SSE
-// register per corner (x, y, z and a lane that is not used). A corner is read as 16 bytes, 4 past its value,
-// except at the very end of the data.
+// The trilinear blend of a grid of vectors' eight corners, x first, then y, then z: the same operations per
+// component as the generic sample (so the same bits), on one SSE register per corner (x, y, z and a lane that is
+// not used). p: the base value's first float; dx, sy, sz: the neighbours' offsets in floats (3 per value); g and
+// f: the weights per axis. A corner is read as 16 bytes, 4 past its value. Batch samplers call it too.
+inline __m128 blendCorners(const float* p, std::size_t dx, std::size_t sy, std::size_t sz, float g0, float f0, float g1,
+                           float f1, float g2, float f2) {
+  const auto at = [&](std::size_t i) { return _mm_loadu_ps(p + i); };
+  const auto lerp = [](__m128 x, __m128 y, float g, float f) {
+    return _mm_add_ps(_mm_mul_ps(x, _mm_set1_ps(g)), _mm_mul_ps(y, _mm_set1_ps(f)));
+  };
+  const __m128 c00 = lerp(at(0), at(dx), g0, f0);
+  const __m128 c10 = lerp(at(sy), at(sy + dx), g0, f0);
+  const __m128 c01 = lerp(at(sz), at(sz + dx), g0, f0);
+  const __m128 c11 = lerp(at(sz + sy), at(sz + sy + dx), g0, f0);
+  return lerp(lerp(c00, c10, g1, f1), lerp(c01, c11, g1, f1), g2, f2);
+}
+
+// A grid of vectors: blendCorners, except at the very end of the data (the last value: three floats only)
 template <>
 inline Vec3 Grid3<Vec3>::Sampler::blendAt(const Corners& c) const {
   static_assert(sizeof(Vec3) == 12, "a Vec3 is three packed floats");
   const std::size_t b = c.b, dx = dx_, sy = sy_, sz = sz_;
-  if (b + sz + sy + dx + 1 >= size_) return blend(c);  // the last value: three floats only
-  const float* raw = data_->data();
-  const auto at = [&](std::size_t i) { return _mm_loadu_ps(raw + 3 * i); };
-  const auto lerp = [](__m128 x, __m128 y, float g, float f) {
-    return _mm_add_ps(_mm_mul_ps(x, _mm_set1_ps(g)), _mm_mul_ps(y, _mm_set1_ps(f)));
-  };
-  const __m128 c00 = lerp(at(b), at(b + dx), c.g[0], c.f[0]);
-  const __m128 c10 = lerp(at(b + sy), at(b + sy + dx), c.g[0], c.f[0]);
-  const __m128 c01 = lerp(at(b + sz), at(b + sz + dx), c.g[0], c.f[0]);
-  const __m128 c11 = lerp(at(b + sz + sy), at(b + sz + sy + dx), c.g[0], c.f[0]);
-  const __m128 r = lerp(lerp(c00, c10, c.g[1], c.f[1]), lerp(c01, c11, c.g[1], c.f[1]), c.g[2], c.f[2]);
+  if (b + sz + sy + dx + 1 >= size_) return blend(c);
+  const __m128 r =
+      blendCorners(data_->data() + 3 * b, 3 * dx, 3 * sy, 3 * sz, c.g[0], c.f[0], c.g[1], c.f[1], c.g[2], c.f[2]);
   alignas(16) float out[4];
   _mm_store_ps(out, r);
   return Vec3(out[0], out[1], out[2]);

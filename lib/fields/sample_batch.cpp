@@ -31,9 +31,6 @@ SWARMSIM_AVX inline void basesAvx(const Constants& c, int a, const float* x, std
   _mm256_storeu_si256(reinterpret_cast<__m256i*>(cell), _mm256_cvttps_epi32(base));
 }
 
-// The blend as Grid3<Vec3>::Sampler::blendAt does it (the same operations per component in the same order, so the
-// same bits), with the eight corners' addresses and the weights ready: a corner is read as 16 bytes, 4 past its
-// value, so agents whose last corner is the data's last value take the sampler's own path
 // (a sample to a Vec3, or to 16 bytes with a 0 after it; `more`: a sample follows it in `out`)
 SWARMSIM_AVX inline void put(Vec3* out, __m128 r, bool more) {
   float* const to = out->data();
@@ -48,6 +45,9 @@ SWARMSIM_AVX inline void put(PaddedVec3* out, __m128 r, bool) {
   _mm_store_ps(out->v, _mm_blend_ps(r, _mm_setzero_ps(), 8));
 }
 
+// Eight points at a time: their cells and weights on lanes (basesAvx), then each one's blend (blendCorners, as
+// Grid3<Vec3>::Sampler::blendAt: the same bits), the next eight's corner rows fetched meanwhile. A corner is read
+// as 16 bytes, 4 past its value, so points whose last corner is the data's last value take the sampler's own path
 template <typename Out>
 SWARMSIM_AVX __attribute__((flatten)) void sampleAvx(const Grid3<Vec3>::Sampler& s, const float* x, const float* y,
                                                      const float* z, std::size_t n, Out* out) {
@@ -55,19 +55,7 @@ SWARMSIM_AVX __attribute__((flatten)) void sampleAvx(const Grid3<Vec3>::Sampler&
   const auto layout = s.layout();
   const float* raw = layout.data->data();
   const std::size_t nx = layout.nx, ny = layout.ny, dx = layout.dx, sy = layout.sy, sz = layout.sz;
-  // the corners of base value b at corner[k] + 3 b (floats): x first, then y, then z
-  const float* const c000 = raw;
-  const float* const c100 = raw + 3 * dx;
-  const float* const c010 = raw + 3 * sy;
-  const float* const c110 = raw + 3 * (sy + dx);
-  const float* const c001 = raw + 3 * sz;
-  const float* const c101 = raw + 3 * (sz + dx);
-  const float* const c011 = raw + 3 * (sz + sy);
-  const float* const c111 = raw + 3 * (sz + sy + dx);
   const std::size_t limit = layout.size - (sz + sy + dx + 1);  // b < limit: every 16-byte read inside the data
-  const auto lerp = [](__m128 p, __m128 q, const float* gw, const float* fw) SWARMSIM_AVX {
-    return _mm_add_ps(_mm_mul_ps(p, _mm_broadcast_ss(gw)), _mm_mul_ps(q, _mm_broadcast_ss(fw)));
-  };
   // eight points' base values and weights; the next eight's are found, and their corners' rows fetched, while
   // this eight is blended
   struct Eight {
@@ -85,7 +73,7 @@ SWARMSIM_AVX __attribute__((flatten)) void sampleAvx(const Grid3<Vec3>::Sampler&
     for (int l = 0; l < 8; ++l) {
       e.b[l] = (static_cast<std::size_t>(e.cell[2][l]) * ny + static_cast<std::size_t>(e.cell[1][l])) * nx +
                static_cast<std::size_t>(e.cell[0][l]);
-      const float* row = c000 + 3 * e.b[l];
+      const float* row = raw + 3 * e.b[l];
       __builtin_prefetch(row);
       __builtin_prefetch(row + 3 * sy);
       __builtin_prefetch(row + 3 * sz);
@@ -106,13 +94,8 @@ SWARMSIM_AVX __attribute__((flatten)) void sampleAvx(const Grid3<Vec3>::Sampler&
         put(out + i + l, s.blendAt(s.cornersOf(i0, fl)));
         continue;
       }
-      const std::size_t o = 3 * b;
-      const float *const f = &e.f[0][l], *const g = &e.g[0][l];  // (axis a's weights 8 floats on)
-      const __m128 v00 = lerp(_mm_loadu_ps(c000 + o), _mm_loadu_ps(c100 + o), g, f);
-      const __m128 v10 = lerp(_mm_loadu_ps(c010 + o), _mm_loadu_ps(c110 + o), g, f);
-      const __m128 v01 = lerp(_mm_loadu_ps(c001 + o), _mm_loadu_ps(c101 + o), g, f);
-      const __m128 v11 = lerp(_mm_loadu_ps(c011 + o), _mm_loadu_ps(c111 + o), g, f);
-      const __m128 r = lerp(lerp(v00, v10, g + 8, f + 8), lerp(v01, v11, g + 8, f + 8), g + 16, f + 16);
+      const __m128 r = blendCorners(raw + 3 * b, 3 * dx, 3 * sy, 3 * sz, e.g[0][l], e.f[0][l], e.g[1][l], e.f[1][l],
+                                    e.g[2][l], e.f[2][l]);
       put(out + i + l, r, i + l + 1 < n);
     }
   }
