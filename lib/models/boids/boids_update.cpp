@@ -126,9 +126,9 @@ inline void updateRow(const BoidsUpdateRow& r, std::size_t m, const BoidsUpdateP
   }
 }
 
-// normalizedOrZero of m velocities, eight at a time (the same operations: x² + (y² + z²), as Eigen's unrolled sum
-// splits three terms, its square root, and
-// each component divided by it; zero where the squared norm is not above 1e-30)
+// normalizedOrZero of m velocities, eight at a time, with the same operations: the squared norm as
+// x² + (y² + z²) (Eigen's unrolled sum splits three terms so), its square root, each component divided by it;
+// zero where the squared norm is not above 1e-30
 template <typename L>
 inline void unitsOf(const float* vx, const float* vy, const float* vz, std::size_t m, float* ux, float* uy, float* uz) {
   using V = typename L::V;

@@ -278,7 +278,7 @@ class FieldModel final : public Model {
     const float gain = static_cast<float>(p_.gain);
     const auto combined = combined_.sampler(), global = global_.sampler(), noise = noise_.sampler();
     const LaneSet lanes = laneSet();
-    // (the velocity is the combined field's sample, and AVX is there: records eight floats at a time)
+    // (each velocity is the combined field's sample, and AVX is there: the records built in registers)
     const bool direct = combinedOk_ && !p_.phototaxis && lanes != LaneSet::kSse;
     // agent i's velocity into its record; returns its tentative position
     const auto agent = [&](std::size_t i, const Vec3& fieldV) {
