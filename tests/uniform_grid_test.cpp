@@ -6,9 +6,11 @@
 #include "spatial/uniform_grid.hpp"
 
 #include <algorithm>
+#include <array>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <numeric>
 #include <random>
@@ -715,6 +717,43 @@ TEST_CASE("UniformGrid rejects a NaN among many points, on every axis", "[grid]"
     UniformGrid g;
     INFO("axis " << axis);
     CHECK_THROWS_AS(build(g, p, 0.5f), std::runtime_error);
+  }
+}
+
+TEST_CASE("growBox: the points' box as std::min and std::max give it, any lane set, NaNs flagged and left out",
+          "[grid]") {
+  std::mt19937 gen(3);
+  std::uniform_real_distribution<float> u(-4.0f, 6.0f);
+  Points p;
+  for (int i = 0; i < 37; ++i) p.add(u(gen), u(gen), u(gen));
+  // signed zeros as the smallest x, -0 first and +0 eight and sixteen points on (the same lane of every lane
+  // set): std::min keeps the -0 it met first, as the lanes must
+  for (float& x : p.x) x = std::abs(x) + 0.5f;
+  p.x[5] = -0.0f;
+  p.x[13] = 0.0f;
+  p.x[21] = 0.0f;
+  std::array<float, 6> want = {1e30f, 1e30f, 1e30f, -1e30f, -1e30f, -1e30f};
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const float v[3] = {p.x[i], p.y[i], p.z[i]};
+    for (int a = 0; a < 3; ++a) {
+      want[a] = std::min(want[a], v[a]);
+      want[3 + a] = std::max(want[3 + a], v[a]);
+    }
+  }
+  for (const auto lanes : {swarmsim::LaneSet::kSse, swarmsim::laneSet()}) {
+    INFO("lanes " << static_cast<int>(lanes));
+    std::array<float, 6> box = {1e30f, 1e30f, 1e30f, -1e30f, -1e30f, -1e30f};
+    CHECK(swarmsim::growBox(p.x.data(), p.y.data(), p.z.data(), p.size(), box, lanes));
+    CHECK(std::memcmp(box.data(), want.data(), sizeof box) == 0);
+    // a NaN, in an eight and in the tail: flagged, and the box is that of the other points
+    for (const std::size_t at : {std::size_t{3}, std::size_t{35}}) {
+      Points q = p;
+      q.y[at] = std::numeric_limits<float>::quiet_NaN();
+      std::array<float, 6> b = {1e30f, 1e30f, 1e30f, -1e30f, -1e30f, -1e30f};
+      CHECK_FALSE(swarmsim::growBox(q.x.data(), q.y.data(), q.z.data(), q.size(), b, lanes));
+      CHECK(std::isfinite(b[1]));
+      CHECK(std::isfinite(b[4]));
+    }
   }
 }
 

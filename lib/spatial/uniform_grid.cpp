@@ -53,35 +53,68 @@ SWARMSIM_AVX std::size_t cellsAvx(const float* x, const float* y, const float* z
   return i;
 }
 
-// points [first, last) into the box r (lo xyz, hi xyz; r[6] set to 1 at a NaN) eight at a time: min(v, lo) and
-// max(v, hi) choose as std::min(lo, v) and std::max(hi, v) do, so the box is the same bits. Returns the first
-// point it left to the caller
-SWARMSIM_AVX std::size_t boxAvx(const float* x, const float* y, const float* z, std::size_t first, std::size_t last,
-                                std::array<float, 7>& r) {
-  const float* v[3] = {x, y, z};
-  std::size_t i = first;
-  for (int a = 0; a < 3; ++a) {
-    __m256 lo = _mm256_set1_ps(r[a]), hi = _mm256_set1_ps(r[3 + a]), nan = _mm256_setzero_ps();
-    for (i = first; i + 8 <= last; i += 8) {
-      const __m256 p = _mm256_loadu_ps(v[a] + i);
-      lo = _mm256_min_ps(p, lo);
-      hi = _mm256_max_ps(p, hi);
-      nan = _mm256_or_ps(nan, _mm256_cmp_ps(p, p, _CMP_UNORD_Q));
-    }
-    alignas(32) float l[8], h[8];
-    _mm256_store_ps(l, lo);
-    _mm256_store_ps(h, hi);
-    for (int k = 0; k < 8; ++k) {
-      r[a] = std::min(r[a], l[k]);
-      r[3 + a] = std::max(r[3 + a], h[k]);
-    }
-    if (_mm256_movemask_ps(nan) != 0) r[6] = 1.0f;
+// growBox's lanes on AVX: axis a's points [0, m) eight at a time into lo and hi; returns the first point left
+SWARMSIM_AVX std::size_t growAxisAvx(const float* v, std::size_t m, float& lo, float& hi, bool& finite) {
+  __m256 l8 = _mm256_set1_ps(lo), h8 = _mm256_set1_ps(hi), nan = _mm256_setzero_ps();
+  std::size_t q = 0;
+  for (; q + 8 <= m; q += 8) {
+    const __m256 p = _mm256_loadu_ps(v + q);
+    l8 = _mm256_min_ps(p, l8);
+    h8 = _mm256_max_ps(p, h8);
+    nan = _mm256_or_ps(nan, _mm256_cmp_ps(p, p, _CMP_UNORD_Q));
   }
-  return i;
+  alignas(32) float l[8], h[8];
+  _mm256_store_ps(l, l8);
+  _mm256_store_ps(h, h8);
+  for (int j = 0; j < 8; ++j) {
+    lo = std::min(lo, l[j]);
+    hi = std::max(hi, h[j]);
+  }
+  finite = finite && _mm256_movemask_ps(nan) == 0;
+  return q;
 }
 #endif
 
 }  // namespace
+
+bool growBox(const float* x, const float* y, const float* z, std::size_t m, std::array<float, 6>& box, LaneSet lanes) {
+  const float* v[3] = {x, y, z};
+  bool finite = true;
+  const bool avx = lanes != LaneSet::kSse;
+  (void)avx;  // (only on x86)
+  for (std::size_t a = 0; a < 3; ++a) {
+    float lo = box[a], hi = box[3 + a];
+    std::size_t q = 0;
+#if SWARMSIM_X86_LANES
+    if (avx) q = growAxisAvx(v[a], m, lo, hi, finite);
+#endif
+#if defined(__SSE2__)
+    __m128 l4 = _mm_set1_ps(lo), h4 = _mm_set1_ps(hi), nan = _mm_setzero_ps();
+    for (; q + 4 <= m; q += 4) {
+      const __m128 p = _mm_loadu_ps(v[a] + q);
+      l4 = _mm_min_ps(p, l4);
+      h4 = _mm_max_ps(p, h4);
+      nan = _mm_or_ps(nan, _mm_cmpunord_ps(p, p));
+    }
+    alignas(16) float l[4], h[4];
+    _mm_store_ps(l, l4);
+    _mm_store_ps(h, h4);
+    for (int j = 0; j < 4; ++j) {
+      lo = std::min(lo, l[j]);
+      hi = std::max(hi, h[j]);
+    }
+    finite = finite && _mm_movemask_ps(nan) == 0;
+#endif
+    for (; q < m; ++q) {
+      lo = std::min(lo, v[a][q]);
+      hi = std::max(hi, v[a][q]);
+      finite = finite && !std::isnan(v[a][q]);
+    }
+    box[a] = lo;
+    box[3 + a] = hi;
+  }
+  return finite;
+}
 
 void UniformGrid::build(const float* x, const float* y, const float* z, std::size_t n, float minCell,
                         double cellsPerPoint, bool sortedCopies) {
@@ -90,38 +123,27 @@ void UniformGrid::build(const float* x, const float* y, const float* z, std::siz
   // bounding box: per-chunk min/max, then combined (exact, so order-free)
   constexpr float kBig = std::numeric_limits<float>::max();
   const int chunks = chunkCount(n);
-  std::vector<std::array<float, 7>>& part = bboxParts_;  // kept: no allocation per step
-  part.resize(static_cast<std::size_t>(chunks));
-  const bool avx = useAvx();
-  (void)avx;  // (only on x86)
+  std::vector<std::array<float, 6>>& part = bboxParts_;  // kept: no allocation per step
+  part.assign(static_cast<std::size_t>(chunks), {kBig, kBig, kBig, -kBig, -kBig, -kBig});
+  std::atomic<bool> nan{false};
+  const LaneSet lanes = laneSet();
   parallelChunks(n, [&](std::size_t first, std::size_t last, int t) {
-    std::array<float, 7> r = {kBig, kBig, kBig, -kBig, -kBig, -kBig, 0.0f};  // lo xyz, hi xyz, any NaN
-    std::size_t from = first;
-#if SWARMSIM_X86_LANES
-    if (avx) from = boxAvx(x, y, z, first, last, r);
-#endif
-    for (std::size_t i = from; i < last; ++i) {
-      const float v[3] = {x[i], y[i], z[i]};
-      for (int a = 0; a < 3; ++a) {
-        r[a] = std::min(r[a], v[a]);
-        r[3 + a] = std::max(r[3 + a], v[a]);
-        if (std::isnan(v[a])) r[6] = 1.0f;
-      }
+    if (!growBox(x + first, y + first, z + first, last - first, part[static_cast<std::size_t>(t)], lanes)) {
+      nan.store(true);
     }
-    part[static_cast<std::size_t>(t)] = r;
   });
+  const bool avx = lanes != LaneSet::kSse;
+  (void)avx;  // (only on x86)
   float lo[3] = {kBig, kBig, kBig}, hi[3] = {-kBig, -kBig, -kBig};
-  bool nan = false;
   for (const auto& r : part) {
     for (int a = 0; a < 3; ++a) {
       lo[a] = std::min(lo[a], r[a]);
       hi[a] = std::max(hi[a], r[3 + a]);
     }
-    nan = nan || r[6] != 0.0f;
   }
   for (int a = 0; a < 3; ++a) {
     if (n == 0) lo[a] = hi[a] = 0.0f;
-    if (nan || !std::isfinite(lo[a]) || !std::isfinite(hi[a])) {
+    if (nan.load() || !std::isfinite(lo[a]) || !std::isfinite(hi[a])) {
       throw std::runtime_error("UniformGrid::build: non-finite agent position");
     }
   }

@@ -15,12 +15,19 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/lanes.hpp"
 #include "core/parallel.hpp"
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
 
 namespace swarmsim {
+
+// box (lo xyz, hi xyz) grown to hold the m points, eight at a time on AVX (lanes: laneSet()), else four where SSE2
+// is there; min(v, lo) and max(v, hi)
+// choose as std::min(lo, v) and std::max(hi, v) do, so a NaN never enters the box and the result is the same bits
+// in any order of points. Returns false if a coordinate is NaN.
+bool growBox(const float* x, const float* y, const float* z, std::size_t m, std::array<float, 6>& box, LaneSet lanes);
 
 // Candidate neighbours of one cell, gathered contiguously (per-thread scratch).
 // Queries from every point of the cell then scan one array, which is much
@@ -289,7 +296,7 @@ class UniformGrid {
   std::vector<std::array<std::uint32_t, 2>> rangeParts_;  // build scratch: each chunk's lowest and highest cell
   std::vector<std::size_t> rangeBase_;                    // build scratch: each chunk's first cursor
   std::vector<float> sx_, sy_, sz_;              // positions in sorted order (n + kSortedPad)
-  std::vector<std::array<float, 7>> bboxParts_;  // per-chunk bounding boxes (build scratch)
+  std::vector<std::array<float, 6>> bboxParts_;  // per-chunk bounding boxes (build scratch)
   float slack_ = 0.0f;                           // how far the points have moved since the build (moveSorted)
 };
 

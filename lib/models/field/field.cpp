@@ -53,37 +53,6 @@ SWARMSIM_AVX void recordsAvx(const float* px, const float* py, const float* pz, 
 }
 #endif
 
-// box (lo xyz, hi xyz) grown to hold the m finite points (min and max are exact, so the result does not depend
-// on the order; four at a time where SSE2 is there)
-void extendBox(const float* x, const float* y, const float* z, std::size_t m, std::array<float, 6>& box) {
-  const float* v[3] = {x, y, z};
-  for (std::size_t a = 0; a < 3; ++a) {
-    float lo = box[a], hi = box[3 + a];
-    std::size_t q = 0;
-#if defined(__SSE2__)
-    __m128 l4 = _mm_set1_ps(lo), h4 = _mm_set1_ps(hi);
-    for (; q + 4 <= m; q += 4) {
-      const __m128 p = _mm_loadu_ps(v[a] + q);
-      l4 = _mm_min_ps(l4, p);
-      h4 = _mm_max_ps(h4, p);
-    }
-    alignas(16) float l[4], h[4];
-    _mm_store_ps(l, l4);
-    _mm_store_ps(h, h4);
-    for (int j = 0; j < 4; ++j) {
-      lo = std::min(lo, l[j]);
-      hi = std::max(hi, h[j]);
-    }
-#endif
-    for (; q < m; ++q) {
-      lo = std::min(lo, v[a][q]);
-      hi = std::max(hi, v[a][q]);
-    }
-    box[a] = lo;
-    box[3 + a] = hi;
-  }
-}
-
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
@@ -446,8 +415,8 @@ class FieldModel final : public Model {
           }
           clearance.settle(nextPx + first, nextPy + first, nextPz + first, m, lo, hi, lanes);
           // the next step's box (min and max are exact: any order of groups gives the same)
-          extendBox(nextPx + first, nextPy + first, nextPz + first, m,
-                    threadBoxes_[static_cast<std::size_t>(threadIndex())]);
+          growBox(nextPx + first, nextPy + first, nextPz + first, m,
+                  threadBoxes_[static_cast<std::size_t>(threadIndex())], lanes);
         };
         threadBoxes_.assign(static_cast<std::size_t>(threadCount()), kEmptyBox);
         if (n < kSerialBelow) {  // few agents: not worth waking the team
@@ -692,8 +661,8 @@ class FieldModel final : public Model {
   void findBox(const SwarmState& s) {
     threadBoxes_.assign(static_cast<std::size_t>(chunkCount(s.size())), kEmptyBox);
     parallelChunks(s.size(), [&](std::size_t first, std::size_t last, int t) {
-      extendBox(s.px.data() + first, s.py.data() + first, s.pz.data() + first, last - first,
-                threadBoxes_[static_cast<std::size_t>(t)]);
+      growBox(s.px.data() + first, s.py.data() + first, s.pz.data() + first, last - first,
+              threadBoxes_[static_cast<std::size_t>(t)], laneSet());
     });
     boxFrom(threadBoxes_);
   }
