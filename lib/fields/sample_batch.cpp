@@ -54,7 +54,6 @@ SWARMSIM_AVX __attribute__((flatten)) void sampleAvx(const Grid3<Vec3>::Sampler&
   const auto layout = s.layout();
   const float* raw = layout.data->data();
   const std::size_t nx = layout.nx, ny = layout.ny, dx = layout.dx, sy = layout.sy, sz = layout.sz;
-  const std::size_t limit = layout.size - (sz + sy + dx + 1);  // b < limit: every 16-byte read inside the data
   // eight points' base values and weights; the next eight's are found, and their corners' rows fetched, while
   // this eight is blended
   struct Eight {
@@ -86,7 +85,7 @@ SWARMSIM_AVX __attribute__((flatten)) void sampleAvx(const Grid3<Vec3>::Sampler&
     const Eight& e = blocks[cur];
     for (int l = 0; l < 8; ++l) {
       const std::size_t b = e.b[l];
-      if (b >= limit) {
+      if (!s.wholeReads(b)) {
         const std::size_t i0[3] = {static_cast<std::size_t>(e.cell[0][l]), static_cast<std::size_t>(e.cell[1][l]),
                                    static_cast<std::size_t>(e.cell[2][l])};
         const float fl[3] = {e.f[0][l], e.f[1][l], e.f[2][l]};

@@ -24,9 +24,8 @@
 namespace swarmsim {
 
 // box (lo xyz, hi xyz) grown to hold the m points, eight at a time on AVX (lanes: laneSet()), else four where SSE2
-// is there; min(v, lo) and max(v, hi)
-// choose as std::min(lo, v) and std::max(hi, v) do, so a NaN never enters the box and the result is the same bits
-// in any order of points. Returns false if a coordinate is NaN.
+// is there. The lanes' min(v, lo) and max(v, hi) choose as std::min(lo, v) and std::max(hi, v) do, so a NaN never
+// enters the box and every lane set gives the same bits. Returns false if a coordinate is NaN.
 bool growBox(const float* x, const float* y, const float* z, std::size_t m, std::array<float, 6>& box, LaneSet lanes);
 
 // Candidate neighbours of one cell, gathered contiguously (per-thread scratch).
