@@ -117,16 +117,16 @@ struct Grid3 {
       return {{min_[0], min_[1], min_[2]}, {cell_[0], cell_[1], cell_[2]}, {last_[0], last_[1], last_[2]}};
     }
 
-    // the data and the offsets (in values) of a cell's neighbours along x, y and z that blend() reads (0 along an
-    // axis of one cell), for the batch samplers
+    // the base values below this one have corners that can each be read as 16 bytes (a Vec3 and 4 bytes past
+    // it) inside the data: all but those whose last corner is the data's last value
+    std::size_t wholeReadsBelow() const { return size_ - (sz_ + sy_ + dx_ + 1); }
+    // the data, the offsets (in values) of a cell's neighbours along x, y and z that blend() reads (0 along an
+    // axis of one cell) and wholeReadsBelow(), for the batch samplers
     struct Layout {
       const T* data;
-      std::size_t nx, ny, dx, sy, sz;
+      std::size_t nx, ny, dx, sy, sz, wholeBelow;
     };
-    Layout layout() const { return {data_, nx_, ny_, dx_, sy_, sz_}; }
-    // whether base value b's corners can each be read as 16 bytes (a Vec3 and 4 bytes past it) inside the data:
-    // all but the corners whose last is the data's last value
-    bool wholeReads(std::size_t b) const { return b + sz_ + sy_ + dx_ + 1 < size_; }
+    Layout layout() const { return {data_, nx_, ny_, dx_, sy_, sz_, wholeReadsBelow()}; }
 
     // the base cell along axis a of a sample at coordinate x (it reads cells base and base + 1), and f, the
     // fraction of the way to the next cell's centre
@@ -197,7 +197,7 @@ inline __m128 blendCorners(const float* p, std::size_t dx, std::size_t sy, std::
 template <>
 inline Vec3 Grid3<Vec3>::Sampler::blendAt(const Corners& c) const {
   static_assert(sizeof(Vec3) == 12, "a Vec3 is three packed floats");
-  if (!wholeReads(c.b)) return blend(c);
+  if (c.b >= wholeReadsBelow()) return blend(c);
   const __m128 r =
       blendCorners(data_->data() + 3 * c.b, 3 * dx_, 3 * sy_, 3 * sz_, c.g[0], c.f[0], c.g[1], c.f[1], c.g[2], c.f[2]);
   alignas(16) float out[4];

@@ -9,8 +9,6 @@ namespace {
 
 using Constants = Grid3<Vec3>::Sampler::Constants;
 
-// a sample as a Vec3, or padded
-inline void put(Vec3* out, const Vec3& v) { *out = v; }
 inline void put(PaddedVec3* out, const Vec3& v) { *out = PaddedVec3{{v.x(), v.y(), v.z(), 0.0f}}; }
 
 #if SWARMSIM_X86_LANES
@@ -30,30 +28,19 @@ SWARMSIM_AVX inline void basesAvx(const Constants& c, int a, const float* x, std
   _mm256_storeu_si256(reinterpret_cast<__m256i*>(cell), _mm256_cvttps_epi32(base));
 }
 
-// (a sample to a Vec3, or to 16 bytes with a 0 after it; `more`: a sample follows it in `out`)
-SWARMSIM_AVX inline void put(Vec3* out, __m128 r, bool more) {
-  float* const to = out->data();
-  if (more) {
-    _mm_storeu_ps(to, r);  // (its fourth float lands on the next sample's x, written after it)
-  } else {
-    _mm_storel_pi(reinterpret_cast<__m64*>(to), r);
-    _mm_store_ss(to + 2, _mm_movehl_ps(r, r));
-  }
-}
-SWARMSIM_AVX inline void put(PaddedVec3* out, __m128 r, bool) {
-  _mm_store_ps(out->v, _mm_blend_ps(r, _mm_setzero_ps(), 8));
-}
+// a sample to 16 bytes with a 0 after it
+SWARMSIM_AVX inline void put(PaddedVec3* out, __m128 r) { _mm_store_ps(out->v, _mm_blend_ps(r, _mm_setzero_ps(), 8)); }
 
 // Eight points at a time: their cells and weights on lanes (basesAvx), then each one's blend (blendCorners, as
 // Grid3<Vec3>::Sampler::blendAt: the same bits), the next eight's corner rows fetched meanwhile. A corner is read
 // as 16 bytes, 4 past its value, so points whose last corner is the data's last value take the sampler's own path
-template <typename Out>
 SWARMSIM_AVX __attribute__((flatten)) void sampleAvx(const Grid3<Vec3>::Sampler& s, const float* x, const float* y,
-                                                     const float* z, std::size_t n, Out* out) {
+                                                     const float* z, std::size_t n, PaddedVec3* out) {
   const Constants c = s.constants();
   const auto layout = s.layout();
   const float* raw = layout.data->data();
   const std::size_t nx = layout.nx, ny = layout.ny, dx = layout.dx, sy = layout.sy, sz = layout.sz;
+  const std::size_t limit = layout.wholeBelow;
   // eight points' base values and weights; the next eight's are found, and their corners' rows fetched, while
   // this eight is blended
   struct Eight {
@@ -85,7 +72,7 @@ SWARMSIM_AVX __attribute__((flatten)) void sampleAvx(const Grid3<Vec3>::Sampler&
     const Eight& e = blocks[cur];
     for (int l = 0; l < 8; ++l) {
       const std::size_t b = e.b[l];
-      if (!s.wholeReads(b)) {
+      if (b >= limit) {
         const std::size_t i0[3] = {static_cast<std::size_t>(e.cell[0][l]), static_cast<std::size_t>(e.cell[1][l]),
                                    static_cast<std::size_t>(e.cell[2][l])};
         const float fl[3] = {e.f[0][l], e.f[1][l], e.f[2][l]};
@@ -94,7 +81,7 @@ SWARMSIM_AVX __attribute__((flatten)) void sampleAvx(const Grid3<Vec3>::Sampler&
       }
       const __m128 r = blendCorners(raw + 3 * b, 3 * dx, 3 * sy, 3 * sz, e.g[0][l], e.f[0][l], e.g[1][l], e.f[1][l],
                                     e.g[2][l], e.f[2][l]);
-      put(out + i + l, r, i + l + 1 < n);
+      put(out + i + l, r);
     }
   }
   for (; i < n; ++i) put(out + i, s(Vec3(x[i], y[i], z[i])));
@@ -103,10 +90,8 @@ SWARMSIM_AVX __attribute__((flatten)) void sampleAvx(const Grid3<Vec3>::Sampler&
 
 }  // namespace
 
-namespace {
-template <typename Out>
-void sampleAny(const Grid3<Vec3>::Sampler& s, const float* x, const float* y, const float* z, std::size_t n, Out* out,
-               LaneSet lanes) {
+void sampleBatch(const Grid3<Vec3>::Sampler& s, const float* x, const float* y, const float* z, std::size_t n,
+                 PaddedVec3* out, LaneSet lanes) {
 #if SWARMSIM_X86_LANES
   if (lanes != LaneSet::kSse) {
     sampleAvx(s, x, y, z, n, out);
@@ -116,17 +101,6 @@ void sampleAny(const Grid3<Vec3>::Sampler& s, const float* x, const float* y, co
   (void)lanes;
 #endif
   for (std::size_t i = 0; i < n; ++i) put(out + i, s(Vec3(x[i], y[i], z[i])));
-}
-}  // namespace
-
-void sampleBatch(const Grid3<Vec3>::Sampler& s, const float* x, const float* y, const float* z, std::size_t n,
-                 Vec3* out, LaneSet lanes) {
-  sampleAny(s, x, y, z, n, out, lanes);
-}
-
-void sampleBatch(const Grid3<Vec3>::Sampler& s, const float* x, const float* y, const float* z, std::size_t n,
-                 PaddedVec3* out, LaneSet lanes) {
-  sampleAny(s, x, y, z, n, out, lanes);
 }
 
 }  // namespace swarmsim

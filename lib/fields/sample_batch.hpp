@@ -15,11 +15,8 @@ struct alignas(16) PaddedVec3 {
   float v[4];
 };
 
-// out[i] = s(Vec3(x[i], y[i], z[i])) for i < n.
+// out[i] = s(Vec3(x[i], y[i], z[i])) for i < n, each padded with a 0.
 // `lanes`: laneSet() (AVX or wider: eight points at a time)
-void sampleBatch(const Grid3<Vec3>::Sampler& s, const float* x, const float* y, const float* z, std::size_t n,
-                 Vec3* out, LaneSet lanes);
-// the same samples, each padded with a 0
 void sampleBatch(const Grid3<Vec3>::Sampler& s, const float* x, const float* y, const float* z, std::size_t n,
                  PaddedVec3* out, LaneSet lanes);
 

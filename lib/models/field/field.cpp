@@ -289,23 +289,23 @@ class FieldModel final : public Model {
     // holds the other at the end), and in blocks: the combined field's samples of a block first, eight at a time
     parallelForBalancedChunks(n, 8192, [&](std::size_t first, std::size_t last) {
       constexpr std::size_t kBlock = 64;
-      Vec3 fieldV[kBlock];
-      PaddedVec3 padded[kBlock];
+      PaddedVec3 fieldV[kBlock];
       float tx[kBlock], ty[kBlock], tz[kBlock];
       for (std::size_t b = first; b < last; b += kBlock) {
         const std::size_t m = std::min(kBlock, last - b);
         const float *const px = s.px.data() + b, *const py = s.py.data() + b, *const pz = s.pz.data() + b;
 #if SWARMSIM_X86_LANES
         if (direct) {
-          sampleBatch(combined, px, py, pz, m, padded, lanes);
-          recordsAvx(px, py, pz, s.id.data() + b, padded, m, dt, reinterpret_cast<float*>(carried_.data() + b), tx, ty,
+          sampleBatch(combined, px, py, pz, m, fieldV, lanes);
+          recordsAvx(px, py, pz, s.id.data() + b, fieldV, m, dt, reinterpret_cast<float*>(carried_.data() + b), tx, ty,
                      tz);
         } else
 #endif
         {
           if (combinedOk_) sampleBatch(combined, px, py, pz, m, fieldV, lanes);
           for (std::size_t q = 0; q < m; ++q) {
-            const Vec3 tent = agent(b + q, combinedOk_ ? fieldV[q] : Vec3::Zero());
+            const float* const v = fieldV[q].v;
+            const Vec3 tent = agent(b + q, combinedOk_ ? Vec3(v[0], v[1], v[2]) : Vec3::Zero());
             tx[q] = tent.x();
             ty[q] = tent.y();
             tz[q] = tent.z();
