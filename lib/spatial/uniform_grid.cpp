@@ -53,25 +53,35 @@ SWARMSIM_AVX std::size_t cellsAvx(const float* x, const float* y, const float* z
   return i;
 }
 
-// growBox's lanes on AVX: axis a's points [0, m) eight at a time into lo and hi; returns the first point left
-SWARMSIM_AVX std::size_t growAxisAvx(const float* v, std::size_t m, float& lo, float& hi, bool& finite) {
-  __m256 l8 = _mm256_set1_ps(lo), h8 = _mm256_set1_ps(hi), nan = _mm256_setzero_ps();
+#endif
+
+// growBox's lanes (core/lanes.hpp): axis points [0, m) eight at a time into lo and hi, finite cleared at a NaN
+// (p <= p is false there); returns the first point left
+template <typename L>
+inline std::size_t growAxis(const float* v, std::size_t m, float& lo, float& hi, bool& finite) {
+  using V = typename L::V;
+  V l = L::set1(lo), h = L::set1(hi), ordered = L::le(L::set1(0.0f), L::set1(0.0f));
   std::size_t q = 0;
-  for (; q + 8 <= m; q += 8) {
-    const __m256 p = _mm256_loadu_ps(v + q);
-    l8 = _mm256_min_ps(p, l8);
-    h8 = _mm256_max_ps(p, h8);
-    nan = _mm256_or_ps(nan, _mm256_cmp_ps(p, p, _CMP_UNORD_Q));
+  for (; q + kLanes <= m; q += kLanes) {
+    const V p = L::load(v + q);
+    l = L::min(p, l);
+    h = L::max(p, h);
+    ordered = L::band(ordered, L::le(p, p));
   }
-  alignas(32) float l[8], h[8];
-  _mm256_store_ps(l, l8);
-  _mm256_store_ps(h, h8);
-  for (int j = 0; j < 8; ++j) {
-    lo = std::min(lo, l[j]);
-    hi = std::max(hi, h[j]);
+  alignas(32) float ls[kLanes], hs[kLanes];
+  L::store(ls, l);
+  L::store(hs, h);
+  for (std::size_t j = 0; j < kLanes; ++j) {
+    lo = std::min(lo, ls[j]);
+    hi = std::max(hi, hs[j]);
   }
-  finite = finite && _mm256_movemask_ps(nan) == 0;
+  finite = finite && L::mask(ordered) == 0xffu;
   return q;
+}
+#if SWARMSIM_X86_LANES
+SWARMSIM_AVX __attribute__((flatten)) std::size_t growAxisAvx(const float* v, std::size_t m, float& lo, float& hi,
+                                                              bool& finite) {
+  return growAxis<AvxLanes>(v, m, lo, hi, finite);
 }
 #endif
 
@@ -86,24 +96,9 @@ bool growBox(const float* x, const float* y, const float* z, std::size_t m, std:
     float lo = box[a], hi = box[3 + a];
     std::size_t q = 0;
 #if SWARMSIM_X86_LANES
-    if (avx) q = growAxisAvx(v[a], m, lo, hi, finite);
-#endif
-#if defined(__SSE2__)
-    __m128 l4 = _mm_set1_ps(lo), h4 = _mm_set1_ps(hi), nan = _mm_setzero_ps();
-    for (; q + 4 <= m; q += 4) {
-      const __m128 p = _mm_loadu_ps(v[a] + q);
-      l4 = _mm_min_ps(p, l4);
-      h4 = _mm_max_ps(p, h4);
-      nan = _mm_or_ps(nan, _mm_cmpunord_ps(p, p));
-    }
-    alignas(16) float l[4], h[4];
-    _mm_store_ps(l, l4);
-    _mm_store_ps(h, h4);
-    for (int j = 0; j < 4; ++j) {
-      lo = std::min(lo, l[j]);
-      hi = std::max(hi, h[j]);
-    }
-    finite = finite && _mm_movemask_ps(nan) == 0;
+    q = avx ? growAxisAvx(v[a], m, lo, hi, finite) : growAxis<SseLanes>(v[a], m, lo, hi, finite);
+#else
+    q = growAxis<ScalarLanes>(v[a], m, lo, hi, finite);
 #endif
     for (; q < m; ++q) {
       lo = std::min(lo, v[a][q]);

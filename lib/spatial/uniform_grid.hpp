@@ -23,8 +23,8 @@
 
 namespace swarmsim {
 
-// box (lo xyz, hi xyz) grown to hold the m points, eight at a time on AVX (lanes: laneSet()), else four where SSE2
-// is there. The lanes' min(v, lo) and max(v, hi) choose as std::min(lo, v) and std::max(hi, v) do, so a NaN never
+// box (lo xyz, hi xyz) grown to hold the m points, eight at a time (on the lanes of core/lanes.hpp: `lanes`,
+// laneSet()). The lanes' min(v, lo) and max(v, hi) choose as std::min(lo, v) and std::max(hi, v) do, so a NaN never
 // enters the box and every lane set gives the same bits. Returns false if a coordinate is NaN.
 bool growBox(const float* x, const float* y, const float* z, std::size_t m, std::array<float, 6>& box, LaneSet lanes);
 
